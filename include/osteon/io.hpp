@@ -1,0 +1,57 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "osteon/mesh.hpp"
+#include "osteon/status.hpp"
+
+// Readers and writers. Every reader treats its bytes as hostile (STYLE habit 5): counts are checked
+// against the bytes that remain before anything is allocated, coordinates must be finite, indices
+// in range; every error names the file and the byte offset or line.
+
+namespace osteon {
+
+enum class Format { kUnknown, kStl, kObj, kPly, kOff, kVtk, kGltf, kGlb };
+
+/// "stl", "obj", "ply", "off", "vtk", "gltf", "glb" or "unknown".
+const char* format_name(Format format);
+/// The format a file name's extension names (case-insensitive), or Format::kUnknown.
+Format format_from_extension(const std::string& path);
+
+struct ReadOptions {
+  /// Weld exactly-equal positions into shared vertices while reading (STL, a triangle soup, is
+  /// welded as it streams in, so the soup is never held in memory). Mesh::stored_vertices keeps
+  /// the count before welding either way.
+  bool weld = true;
+  /// The unit to record on every part. Unit::kUnknown: guess it from the scene's size.
+  Unit unit = Unit::kUnknown;
+  /// Refuse files (and, for folders, the sum of files) larger than this many bytes.
+  uint64_t max_file_bytes = uint64_t{4} << 30;
+};
+
+/// Reads one mesh file or a folder of them. A file gives one part, or several (OBJ groups, glTF
+/// nodes); a folder gives every mesh file below it (recursively, in sorted path order) as named
+/// parts, named by the path relative to the folder without extension, plus "/node" where one file
+/// holds several parts.
+/// Errors: kIoError for a missing or unreadable path, kInvalidData for bad bytes, kUnsupported for
+/// a format or a feature osteon does not read, and a folder holding no mesh file is kIoError.
+Result<Scene> read_path(const std::string& path, const ReadOptions& options = {});
+
+/// Parses one file already in memory. `source` is the name used in messages and for part names;
+/// `format` kUnknown picks the format from `source`'s extension, then from the bytes themselves.
+/// A .gltf with external buffers needs read_path (the buffers are found beside the file).
+Result<Scene> read_memory(const uint8_t* data, size_t size, const std::string& source,
+                          Format format = Format::kUnknown, const ReadOptions& options = {});
+
+/// Writes one mesh as binary STL, binary little-endian PLY or OBJ, chosen by the extension of
+/// `path`. Writes to a temporary file beside `path` and renames it, so no half-written file is
+/// ever left behind. Errors: kInvalidArgument for another extension, kIoError when writing fails.
+Status write_mesh(const std::string& path, const Mesh& mesh);
+
+/// Writes bytes to `path` through a temporary file and a rename.
+Status write_file_atomic(const std::string& path, const void* data, size_t size);
+
+}  // namespace osteon

@@ -1,0 +1,182 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <bit>
+#include <charconv>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <string_view>
+
+#include "osteon/status.hpp"
+
+// The one bounds-checked reader every parser goes through (STYLE habit 5). Binary parsing uses
+// ByteReader; text formats use TextReader, which tracks line numbers for messages. Neither ever
+// reads past the end: every read returns false instead, and the caller turns that into a Status.
+
+namespace osteon {
+
+class ByteReader {
+ public:
+  ByteReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+
+  size_t offset() const { return offset_; }
+  size_t size() const { return size_; }
+  size_t remaining() const { return size_ - offset_; }
+  const uint8_t* current() const { return data_ + offset_; }
+  /// True when `count` items of `item_bytes` each fit in the bytes that remain (overflow-safe).
+  bool fits(uint64_t count, uint64_t item_bytes) const {
+    return item_bytes == 0 || count <= remaining() / item_bytes;
+  }
+
+  bool skip(size_t n) {
+    if (n > remaining()) return false;
+    offset_ += n;
+    return true;
+  }
+  bool seek(size_t offset) {
+    if (offset > size_) return false;
+    offset_ = offset;
+    return true;
+  }
+  bool read_bytes(void* out, size_t n) {
+    if (n > remaining()) return false;
+    std::memcpy(out, data_ + offset_, n);
+    offset_ += n;
+    return true;
+  }
+  template <class T>
+  bool read_le(T* out) {
+    return read_endian(out, std::endian::little);
+  }
+  template <class T>
+  bool read_be(T* out) {
+    return read_endian(out, std::endian::big);
+  }
+  template <class T>
+  bool read_endian(T* out, std::endian order) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (sizeof(T) > remaining()) return false;
+    *out = load<T>(data_ + offset_, order);
+    offset_ += sizeof(T);
+    return true;
+  }
+
+  /// Loads a T stored in byte order `order` from unaligned memory.
+  template <class T>
+  static T load(const uint8_t* p, std::endian order) {
+    uint8_t bytes[sizeof(T)];
+    std::memcpy(bytes, p, sizeof(T));
+    if (order != std::endian::native) {
+      for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
+    }
+    T value;
+    std::memcpy(&value, bytes, sizeof(T));
+    return value;
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t offset_ = 0;
+};
+
+/// Line- and token-oriented reading of ASCII formats (OBJ, OFF, ASCII PLY/STL/VTK). Tokens are
+/// separated by spaces, tabs and line ends; '\r' is whitespace. No allocation.
+class TextReader {
+ public:
+  TextReader(const char* data, size_t size) : data_(data), size_(size) {}
+  TextReader(const uint8_t* data, size_t size)
+      : data_(reinterpret_cast<const char*>(data)), size_(size) {}
+
+  size_t offset() const { return offset_; }
+  size_t line() const { return line_; }
+  size_t remaining() const { return size_ - offset_; }
+  bool at_end() const { return offset_ >= size_; }
+  /// "line 12" for messages.
+  std::string where() const { return "line " + std::to_string(line_); }
+
+  /// Skips spaces, tabs and '\r', but not newlines.
+  void skip_blanks() {
+    while (offset_ < size_ && (data_[offset_] == ' ' || data_[offset_] == '\t' ||
+                               data_[offset_] == '\r' || data_[offset_] == '\f' ||
+                               data_[offset_] == '\v'))
+      ++offset_;
+  }
+  /// Skips all whitespace including newlines.
+  void skip_whitespace() {
+    while (offset_ < size_ && is_space(data_[offset_])) {
+      if (data_[offset_] == '\n') ++line_;
+      ++offset_;
+    }
+  }
+  /// The next whitespace-separated token, possibly on a later line; empty at the end.
+  std::string_view next_token() {
+    skip_whitespace();
+    return token_here();
+  }
+  /// The next token on the current line; empty at the end of the line.
+  std::string_view next_token_on_line() {
+    skip_blanks();
+    return token_here();
+  }
+  /// The rest of the current line (without the line end), moving to the start of the next.
+  std::string_view rest_of_line() {
+    size_t start = offset_;
+    while (offset_ < size_ && data_[offset_] != '\n') ++offset_;
+    size_t end = offset_;
+    if (offset_ < size_) {
+      ++offset_;
+      ++line_;
+    }
+    while (end > start && (data_[end - 1] == '\r' || data_[end - 1] == ' ')) --end;
+    return {data_ + start, end - start};
+  }
+  void skip_line() { (void)rest_of_line(); }
+
+  static bool is_space(char c) {
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+  }
+
+ private:
+  std::string_view token_here() {
+    size_t start = offset_;
+    while (offset_ < size_ && !is_space(data_[offset_])) ++offset_;
+    return {data_ + start, offset_ - start};
+  }
+
+  const char* data_;
+  size_t size_;
+  size_t offset_ = 0;
+  size_t line_ = 1;
+};
+
+/// Parses a whole token as a float. Accepts what strtof accepts for finite numbers plus a leading
+/// '+'; "nan"/"inf" parse (so the caller can report them as non-finite rather than as garbage).
+inline bool parse_float(std::string_view token, float* out) {
+  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), *out);
+  if (ec == std::errc::result_out_of_range) {
+    // from_chars leaves *out untouched on overflow/underflow: decide by the sign and magnitude.
+    double d = std::strtod(std::string(token).c_str(), nullptr);
+    *out = static_cast<float>(d);
+    return true;
+  }
+  return ec == std::errc() && ptr == token.data() + token.size();
+}
+
+/// Parses a whole token as a signed 64-bit integer (a leading '+' is allowed).
+inline bool parse_int(std::string_view token, int64_t* out) {
+  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), *out);
+  return ec == std::errc() && ptr == token.data() + token.size();
+}
+
+/// "byte 84" for messages.
+inline std::string at_byte(size_t offset) { return "byte " + std::to_string(offset); }
+
+}  // namespace osteon

@@ -1,0 +1,73 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "osteon/io.hpp"
+#include "osteon/mesh.hpp"
+#include "osteon/status.hpp"
+
+// What the per-format readers (src/io_<format>.cpp) share with the dispatcher in src/io.cpp.
+//
+// Contract of every `parse_<format>` function:
+// - `data`/`size` are the whole file, hostile. `source` is the path used in messages.
+// - On success it appends one or more meshes to `scene->parts`. Each mesh gets:
+//     name            the sub-part name the file gives (OBJ group, glTF node name), or empty;
+//                     the dispatcher turns it into the final part name (file stem, "stem/name");
+//     positions, indices (triangles only: polygons fan-triangulated, strips unrolled),
+//     normals         only where the file has per-vertex normals that map 1:1 to positions;
+//     stored_vertices the number of vertices the file stores for this part.
+// - Meshes may be welded or not: the dispatcher welds afterwards when ReadOptions::weld is set
+//   (STL welds while streaming, because its soup is 3x the welded size).
+// - Every error is `error(ErrorCode::kInvalidData, source, what, where)` with where = "byte N"
+//   (binary) or "line N" (text); nothing is allocated from a count before checking that the bytes
+//   remaining can hold it; coordinates must be finite; indices must be in range.
+
+namespace osteon::detail {
+
+Status parse_stl(const uint8_t* data, size_t size, const std::string& source,
+                 const ReadOptions& options, Scene* scene);
+/// Binary STL streamed from an open file in ~1 MiB chunks and welded as it arrives, so memory
+/// stays near the size of the welded mesh; ASCII STL is read whole and handed to parse_stl.
+Status parse_stl_file(std::FILE* file, uint64_t size, const std::string& source,
+                      const ReadOptions& options, Scene* scene);
+Status parse_obj(const uint8_t* data, size_t size, const std::string& source,
+                 const ReadOptions& options, Scene* scene);
+Status parse_ply(const uint8_t* data, size_t size, const std::string& source,
+                 const ReadOptions& options, Scene* scene);
+Status parse_off(const uint8_t* data, size_t size, const std::string& source,
+                 const ReadOptions& options, Scene* scene);
+Status parse_vtk(const uint8_t* data, size_t size, const std::string& source,
+                 const ReadOptions& options, Scene* scene);
+/// glTF (JSON) and GLB. `base_dir` is where external buffers of a .gltf are looked up; empty when
+/// reading from memory, in which case only embedded (data: URI / GLB) buffers are accepted.
+Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
+                  const std::string& base_dir, const ReadOptions& options, Scene* scene);
+
+/// Guesses the format from the first bytes (magic numbers and keywords); kUnknown if none fits.
+Format sniff_format(const uint8_t* data, size_t size);
+
+inline bool is_finite(const Vec3& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+}
+
+/// The error every reader gives for a NaN or infinite coordinate.
+inline Status non_finite_error(const std::string& source, size_t vertex, const std::string& where) {
+  return error(ErrorCode::kInvalidData, source,
+               "vertex " + std::to_string(vertex) + " has a NaN or infinite coordinate", where);
+}
+
+/// Appends the fan triangulation (v0, vi, vi+1) of a polygon with `count` >= 3 corners.
+inline void add_polygon_fan(Mesh& mesh, const uint32_t* corners, size_t count) {
+  for (size_t i = 1; i + 1 < count; ++i) {
+    mesh.indices.push_back(corners[0]);
+    mesh.indices.push_back(corners[i]);
+    mesh.indices.push_back(corners[i + 1]);
+  }
+}
+
+}  // namespace osteon::detail

@@ -1,0 +1,78 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "osteon/mesh.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+namespace osteon {
+
+const char* unit_name(Unit unit) {
+  switch (unit) {
+    case Unit::kMillimetre: return "mm";
+    case Unit::kCentimetre: return "cm";
+    case Unit::kMetre: return "m";
+    case Unit::kInch: return "in";
+    case Unit::kUnknown: break;
+  }
+  return "unknown";
+}
+
+bool parse_unit(const std::string& text, Unit* unit) {
+  std::string t = text;
+  std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (t == "mm" || t == "millimetre" || t == "millimeter" || t == "millimetres" ||
+      t == "millimeters") {
+    *unit = Unit::kMillimetre;
+  } else if (t == "cm" || t == "centimetre" || t == "centimeter" || t == "centimetres" ||
+             t == "centimeters") {
+    *unit = Unit::kCentimetre;
+  } else if (t == "m" || t == "metre" || t == "meter" || t == "metres" || t == "meters") {
+    *unit = Unit::kMetre;
+  } else if (t == "in" || t == "inch" || t == "inches") {
+    *unit = Unit::kInch;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Aabb bounding_box(const Mesh& mesh) {
+  Aabb box;
+  auto add = [&box](const Vec3& p) {
+    if (box.empty) {
+      box.min = box.max = p;
+      box.empty = false;
+      return;
+    }
+    box.min = {std::min(box.min.x, p.x), std::min(box.min.y, p.y), std::min(box.min.z, p.z)};
+    box.max = {std::max(box.max.x, p.x), std::max(box.max.y, p.y), std::max(box.max.z, p.z)};
+  };
+  if (mesh.indices.empty()) {
+    for (const Vec3& p : mesh.positions) add(p);
+  } else {
+    std::vector<bool> seen(mesh.positions.size(), false);
+    for (uint32_t i : mesh.indices) {
+      if (i < seen.size() && !seen[i]) {
+        seen[i] = true;
+        add(mesh.positions[i]);
+      }
+    }
+  }
+  return box;
+}
+
+Unit guess_unit(const Scene& scene) {
+  float largest = 0;
+  bool any = false;
+  for (const Mesh& part : scene.parts) {
+    Aabb box = bounding_box(part);
+    if (box.empty) continue;
+    any = true;
+    largest = std::max({largest, box.max.x - box.min.x, box.max.y - box.min.y,
+                        box.max.z - box.min.z});
+  }
+  if (!any) return Unit::kUnknown;
+  return largest < 3.0f ? Unit::kMetre : Unit::kMillimetre;
+}
+
+}  // namespace osteon

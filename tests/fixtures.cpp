@@ -1,0 +1,118 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "fixtures.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <unistd.h>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "osteon/phantom.hpp"
+
+namespace fs = std::filesystem;
+
+namespace osteon::test {
+
+std::string shared_data_dir() {
+  const char* env = std::getenv("OSTEON_SHARED_DATA");
+  std::string dir = env ? env : OSTEON_SHARED_DATA_DIR;
+  std::error_code ec;
+  return fs::is_directory(dir, ec) ? dir : std::string();
+}
+
+std::string scratch_dir() {
+  static std::atomic<int> counter{0};
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
+  std::replace(name.begin(), name.end(), '/', '_');
+  fs::path dir = fs::temp_directory_path() /
+                 ("osteon_test_" + std::to_string(::getpid()) + "_" +
+                  std::to_string(counter++) + "_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+std::vector<uint8_t> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+Scene parse_or_fail(const std::string& bytes, const std::string& source,
+                    const ReadOptions& options) {
+  auto result = read_memory(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), source,
+                            Format::kUnknown, options);
+  if (!result.ok()) {
+    ADD_FAILURE() << "read_memory(" << source << ") failed: " << result.status().message();
+    return {};
+  }
+  return std::move(result).value();
+}
+
+std::string parse_error(const std::string& bytes, const std::string& source) {
+  auto result = read_memory(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), source);
+  return result.ok() ? std::string() : result.status().message();
+}
+
+std::vector<NamedMesh> mesh_categories() {
+  std::vector<NamedMesh> out;
+  out.push_back({"closed", make_icosphere(2, 1.0f)});
+  out.push_back({"closed", make_box({0, 0, 0}, {1, 2, 3})});
+  out.push_back({"open", make_open_cylinder(1.0f, 2.0f, 16, 4)});
+  out.push_back({"genus1", make_torus(2.0f, 0.5f, 24, 12)});
+  out.push_back({"nonmanifold", make_nonmanifold_book()});
+  out.push_back({"nonmanifold", make_bowtie_tetrahedra()});
+  {
+    Mesh a = make_icosphere(1, 1.0f);
+    Mesh b = make_box({3, 3, 3}, {4, 4, 4});
+    uint32_t base = static_cast<uint32_t>(a.positions.size());
+    a.positions.insert(a.positions.end(), b.positions.begin(), b.positions.end());
+    for (uint32_t i : b.indices) a.indices.push_back(base + i);
+    out.push_back({"multicomponent", std::move(a)});
+  }
+  {
+    Mesh m = make_box({0, 0, 0}, {1, 1, 1});
+    m.indices.insert(m.indices.end(), {0, 0, 1});  // repeated index
+    m.positions.push_back({0.5f, 0, 0});           // on the edge 0-1 of the box (x axis)
+    uint32_t mid = static_cast<uint32_t>(m.positions.size() - 1);
+    m.indices.insert(m.indices.end(), {0, mid, 1});  // zero area, if 0 and 1 lie on the x axis
+    out.push_back({"degenerate", std::move(m)});
+  }
+  return out;
+}
+
+std::vector<std::array<float, 9>> canonical_triangles(const Mesh& mesh) {
+  std::vector<std::array<float, 9>> tris;
+  tris.reserve(mesh.triangle_count());
+  for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+    std::array<Vec3, 3> c;
+    for (int k = 0; k < 3; ++k) c[k] = mesh.positions[mesh.indices[3 * t + k]];
+    auto less = [](const Vec3& a, const Vec3& b) {
+      return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z);
+    };
+    int first = 0;
+    for (int k = 1; k < 3; ++k)
+      if (less(c[k], c[first])) first = k;
+    std::array<float, 9> row;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& p = c[(first + k) % 3];
+      row[3 * k] = p.x;
+      row[3 * k + 1] = p.y;
+      row[3 * k + 2] = p.z;
+    }
+    tris.push_back(row);
+  }
+  std::sort(tris.begin(), tris.end());
+  return tris;
+}
+
+}  // namespace osteon::test
