@@ -127,6 +127,7 @@ Status parse_ascii(const uint8_t* data, size_t size, const std::string& source,
     if (token.empty()) break;
     OSTEON_RETURN_IF_ERROR(expect(token, "solid"));
     Mesh mesh;
+    in.skip_blanks();
     mesh.name = std::string(in.rest_of_line());
     if (mesh.name.size() > 200) mesh.name.resize(200);
     std::unique_ptr<ExactWelder> welder;

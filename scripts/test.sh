@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Every test: installs what is missing, then builds and runs the suite twice: a Release build with
+# g++ and warnings as errors, and a clang build under AddressSanitizer + UndefinedBehaviorSanitizer.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/deps.sh
+jobs=$(nproc)
+
+echo "== g++ Release, -Werror"
+cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=g++ \
+  -DOSTEON_WERROR=ON -DOSTEON_BUILD_TESTS=ON >/dev/null
+cmake --build build/release -j"$jobs"
+ctest --test-dir build/release -j"$jobs" --output-on-failure
+
+echo "== clang ASan+UBSan, -Werror"
+cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+  -DOSTEON_WERROR=ON -DOSTEON_BUILD_TESTS=ON -DOSTEON_SANITIZE=address,undefined >/dev/null
+cmake --build build/asan -j"$jobs"
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build/asan -j"$jobs" --output-on-failure
