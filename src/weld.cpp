@@ -77,10 +77,13 @@ std::vector<uint32_t> tolerance_remap(Mesh& mesh, float tolerance) {
   struct Cell {
     int64_t x, y, z;
   };
-  auto cell_of = [&](const Vec3& p) {
-    return Cell{int64_t(std::floor(p.x / cell)), int64_t(std::floor(p.y / cell)),
-                int64_t(std::floor(p.z / cell))};
+  // Cell coordinates are clamped so that huge coordinates over a tiny tolerance cannot overflow
+  // the integer conversion; clamped cells are merely shared by far-apart points (distance decides).
+  auto coord = [cell](float v) {
+    double q = std::floor(double(v) / cell);
+    return int64_t(std::clamp(q, -4.0e18, 4.0e18));
   };
+  auto cell_of = [&](const Vec3& p) { return Cell{coord(p.x), coord(p.y), coord(p.z)}; };
   // cell key -> representatives (new ids) in that cell; collisions between cells are harmless
   // because candidates are checked by distance.
   std::unordered_map<uint64_t, std::vector<uint32_t>> grid;

@@ -135,7 +135,9 @@ TEST(Cli, PhantomWritesPartsAndTruthThatInfoReads) {
       EXPECT_EQ(part["triangles"], t["triangles"]) << t["name"];
       EXPECT_EQ(part["nonmanifold_edges"], t["nonmanifold_edges"]) << t["name"];
       EXPECT_EQ(part["boundary_loops"], t["boundary_loops"]) << t["name"];
-      if (t["nonmanifold_edges"] == 0) EXPECT_EQ(part["genus"], t["genus"]) << t["name"];
+      if (t["nonmanifold_edges"] == 0) {
+        EXPECT_EQ(part["genus"], t["genus"]) << t["name"];
+      }
     }
   }
   // Same seed, same bytes.

@@ -53,7 +53,7 @@ struct DiagnosisReport {
   size_t inconsistent_edges = 0;
   long euler = 0;  ///< V - E + F over all positions (unreferenced ones count as isolated vertices)
   long genus = -1;  ///< sum over components when every component has one, else -1
-  bool closed = false;
+  bool closed = false;  ///< no boundary and no non-manifold edge; an empty mesh is not closed
   bool oriented = false;  ///< closed, and no inconsistent edge
   Aabb bbox;
   double area = 0;

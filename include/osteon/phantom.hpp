@@ -49,13 +49,15 @@ struct PhantomPart {
   std::array<double, 16> transform{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   float noise = 0.0f;
   int boundary_loops = 0;
-  int genus = 0;
+  int genus = 0;  ///< -1 for non-manifold parts, where diagnose() reports none
   int nonmanifold_edges = 0;
 };
 
 struct PhantomOptions {
+  /// Seeds the noise of the noisy copies; shapes and truth do not depend on it.
   uint64_t seed = 1;
-  /// Subdivision level of the bone shapes: 2 gives about 1k triangles a bone, 4 about 16k.
+  /// Subdivision level of the bone shapes, clamped to [1, 6]: 2 gives about 1k triangles a
+  /// bone, 3 about 4k.
   int detail = 3;
 };
 
