@@ -176,6 +176,18 @@ inline bool parse_int(std::string_view token, int64_t* out) {
   return ec == std::errc() && ptr == token.data() + token.size();
 }
 
+/// A token from a file, fit for an error message: quoted, at most 32 characters, unprintable
+/// bytes replaced by '?'.
+inline std::string quote_token(std::string_view token) {
+  std::string out = "'";
+  for (size_t i = 0; i < token.size() && i < 32; ++i) {
+    char c = token[i];
+    out += (c >= 0x20 && c < 0x7f) ? c : '?';
+  }
+  if (token.size() > 32) out += "...";
+  return out + "'";
+}
+
 /// "byte 84" for messages.
 inline std::string at_byte(size_t offset) { return "byte " + std::to_string(offset); }
 

@@ -38,16 +38,6 @@ namespace {
 constexpr uint32_t kUnset = UINT32_MAX;
 
 /// A token from the file for a message: at most 32 characters, non-printable bytes as '?'.
-std::string quote(std::string_view token) {
-  std::string out = "'";
-  for (size_t i = 0; i < token.size() && i < 32; ++i) {
-    char c = token[i];
-    out += (c >= 0x20 && c < 0x7f) ? c : '?';
-  }
-  if (token.size() > 32) out += "...";
-  return out + "'";
-}
-
 /// The next token on the logical line: a lone '\' at the end of a line continues it on the next.
 std::string_view next_token(TextReader& text) {
   std::string_view token = text.next_token_on_line();
@@ -92,7 +82,7 @@ Status resolve(std::string_view token, size_t defined, const char* kind, const T
   int64_t raw = 0;
   if (!parse_int(token, &raw)) {
     return error(ErrorCode::kInvalidData, source,
-                 std::string("bad ") + kind + " index " + quote(token), text.where());
+                 std::string("bad ") + kind + " index " + quote_token(token), text.where());
   }
   if (raw == 0) {
     return error(ErrorCode::kInvalidData, source,
@@ -125,7 +115,7 @@ Status read_vec3(TextReader& text, const std::string& source, const char* what, 
     if (!parse_float(token, v)) {
       return error(ErrorCode::kInvalidData, source,
                    token.empty() ? std::string(what) + " needs three numbers"
-                                 : std::string(what) + ": " + quote(token) + " is not a number",
+                                 : std::string(what) + ": " + quote_token(token) + " is not a number",
                    text.where());
     }
   }
@@ -226,7 +216,7 @@ Status ObjReader::read_face(TextReader& text) {
       bad = bad || normal.find('/') != std::string_view::npos;
     }
     if (bad) {
-      return error(ErrorCode::kInvalidData, source_, "bad face corner " + quote(token),
+      return error(ErrorCode::kInvalidData, source_, "bad face corner " + quote_token(token),
                    text.where());
     }
     uint32_t index = 0;

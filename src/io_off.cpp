@@ -36,16 +36,6 @@ namespace osteon::detail {
 namespace {
 
 /// A token from the file for a message: at most 32 characters, non-printable bytes as '?'.
-std::string quote(std::string_view token) {
-  std::string out = "'";
-  for (size_t i = 0; i < token.size() && i < 32; ++i) {
-    char c = token[i];
-    out += (c >= 0x20 && c < 0x7f) ? c : '?';
-  }
-  if (token.size() > 32) out += "...";
-  return out + "'";
-}
-
 /// The next value token, possibly on a later line, skipping '#' comments; empty at the end.
 std::string_view next_value(TextReader& text) {
   for (;;) {
@@ -94,7 +84,7 @@ Status bad_value(const std::string& source, const std::string& what, std::string
   if (token.empty()) {
     return error(ErrorCode::kInvalidData, source, "the file ends in " + what, text.where());
   }
-  return error(ErrorCode::kInvalidData, source, what + ": " + quote(token) + " is not a number",
+  return error(ErrorCode::kInvalidData, source, what + ": " + quote_token(token) + " is not a number",
                text.where());
 }
 
@@ -107,7 +97,7 @@ Status read_count(TextReader& text, std::string_view token, const std::string& s
   }
   if (!parse_int(token, &value) || value < 0) {
     return error(ErrorCode::kInvalidData, source,
-                 std::string("bad ") + what + " " + quote(token) + " (expected a count >= 0)",
+                 std::string("bad ") + what + " " + quote_token(token) + " (expected a count >= 0)",
                  text.where());
   }
   *count = static_cast<uint64_t>(value);
@@ -139,7 +129,7 @@ Status parse_off(const uint8_t* data, size_t size, const std::string& source,
   if (!headerless) {
     if (!parse_keyword(token, &keyword)) {
       return error(ErrorCode::kInvalidData, source,
-                   "not an OFF file: it begins with " + quote(token), text.where());
+                   "not an OFF file: it begins with " + quote_token(token), text.where());
     }
     token = next_on_line(text);
     if (token == "BINARY") {
@@ -219,7 +209,7 @@ Status parse_off(const uint8_t* data, size_t size, const std::string& source,
     if (!parse_int(count_token, &n) || n < 0 ||
         static_cast<uint64_t>(n) > (uint64_t{text.remaining()} + 1) / 2) {
       return error(ErrorCode::kInvalidData, source,
-                   "face " + std::to_string(f) + ": bad corner count " + quote(count_token),
+                   "face " + std::to_string(f) + ": bad corner count " + quote_token(count_token),
                    text.where());
     }
     corners.clear();
@@ -233,7 +223,7 @@ Status parse_off(const uint8_t* data, size_t size, const std::string& source,
       if (!parse_int(index_token, &index)) {
         return error(
             ErrorCode::kInvalidData, source,
-            "face " + std::to_string(f) + ": " + quote(index_token) + " is not a vertex index",
+            "face " + std::to_string(f) + ": " + quote_token(index_token) + " is not a vertex index",
             text.where());
       }
       if (index < 0 || static_cast<uint64_t>(index) >= vertex_count) {

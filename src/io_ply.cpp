@@ -118,16 +118,6 @@ bool fits_type(PlyType type, int64_t v) {
 }
 
 /// A token from the file for a message: at most 32 characters, non-printable bytes as '?'.
-std::string quote(std::string_view token) {
-  std::string out = "'";
-  for (size_t i = 0; i < token.size() && i < 32; ++i) {
-    char c = token[i];
-    out += (c >= 0x20 && c < 0x7f) ? c : '?';
-  }
-  if (token.size() > 32) out += "...";
-  return out + "'";
-}
-
 /// A value for a message: an integer when it is one.
 std::string number_text(double v) {
   if (std::isfinite(v) && v == std::floor(v) && std::fabs(v) < 1e18) {
@@ -210,11 +200,11 @@ Status parse_header(TextReader& text, const std::string& source, PlyHeader* head
       } else if (encoding == "binary_big_endian") {
         header->encoding = PlyEncoding::kBinaryBigEndian;
       } else {
-        return error(ErrorCode::kInvalidData, source, "unknown PLY format " + quote(encoding),
+        return error(ErrorCode::kInvalidData, source, "unknown PLY format " + quote_token(encoding),
                      where);
       }
       if (version.substr(0, 2) != "1." && version != "1") {
-        return error(ErrorCode::kUnsupported, source, "PLY version " + quote(version), where);
+        return error(ErrorCode::kUnsupported, source, "PLY version " + quote_token(version), where);
       }
       have_format = true;
     } else if (key == "element") {
@@ -230,7 +220,7 @@ Status parse_header(TextReader& text, const std::string& source, PlyHeader* head
       for (const PlyElement& other : header->elements) {
         if (other.name == element.name) {
           return error(ErrorCode::kInvalidData, source,
-                       "element " + quote(element.name) + " is declared twice", where);
+                       "element " + quote_token(element.name) + " is declared twice", where);
         }
       }
       header->elements.push_back(std::move(element));
@@ -248,11 +238,11 @@ Status parse_header(TextReader& text, const std::string& source, PlyHeader* head
         type = text.next_token_on_line();
         if (!good) {
           return error(ErrorCode::kInvalidData, source,
-                       "list count type " + quote(count_type) + " is not an integer type", where);
+                       "list count type " + quote_token(count_type) + " is not an integer type", where);
         }
       }
       if (!parse_type(type, &property.type)) {
-        return error(ErrorCode::kInvalidData, source, "unknown property type " + quote(type),
+        return error(ErrorCode::kInvalidData, source, "unknown property type " + quote_token(type),
                      where);
       }
       property.name = std::string(text.next_token_on_line());
@@ -261,7 +251,7 @@ Status parse_header(TextReader& text, const std::string& source, PlyHeader* head
       }
       header->elements.back().properties.push_back(std::move(property));
     } else {
-      return error(ErrorCode::kInvalidData, source, "unknown header line " + quote(key), where);
+      return error(ErrorCode::kInvalidData, source, "unknown header line " + quote_token(key), where);
     }
     text.skip_line();
   }
@@ -360,18 +350,18 @@ class AsciiSource {
     if (is_integer(type)) {
       int64_t v = 0;
       if (!parse_int(token, &v)) {
-        problem_ = quote(token) + " is not an integer";
+        problem_ = quote_token(token) + " is not an integer";
         return false;
       }
       if (!fits_type(type, v)) {
-        problem_ = quote(token) + " is out of range for its type";
+        problem_ = quote_token(token) + " is out of range for its type";
         return false;
       }
       *out = static_cast<double>(v);
     } else {
       float v = 0;
       if (!parse_float(token, &v)) {
-        problem_ = quote(token) + " is not a number";
+        problem_ = quote_token(token) + " is not a number";
         return false;
       }
       *out = v;
@@ -426,7 +416,7 @@ template <class Source>
 Status item_error(const Source& src, const std::string& source, const PlyElement& element,
                   uint64_t item, const std::string& what, size_t mark) {
   return error(ErrorCode::kInvalidData, source,
-               "element " + quote(element.name) + " item " + std::to_string(item) + ": " + what,
+               "element " + quote_token(element.name) + " item " + std::to_string(item) + ": " + what,
                src.where(mark));
 }
 
@@ -470,7 +460,7 @@ Status skip_element(Source& src, const std::string& source, const PlyElement& el
   if (!element.has_list()) {
     if (!src.skip_items(element, element.count)) {
       return error(ErrorCode::kInvalidData, source,
-                   "element " + quote(element.name) + ": " + src.problem(), src.where(src.mark()));
+                   "element " + quote_token(element.name) + ": " + src.problem(), src.where(src.mark()));
     }
     return {};
   }
@@ -815,7 +805,7 @@ Status make_plan(const PlyHeader& header, const std::string& source, size_t data
     if (*list == kNone && both_names) *list = element.find("vertex_index");
     if (*list == kNone || !element.properties[*list].is_list) {
       return error(ErrorCode::kInvalidData, source,
-                   "element " + quote(element.name) + " has no vertex_indices list", header_end);
+                   "element " + quote_token(element.name) + " has no vertex_indices list", header_end);
     }
     return {};
   };
@@ -836,7 +826,7 @@ Status make_plan(const PlyHeader& header, const std::string& source, size_t data
     if (item_bytes == 0) continue;
     if (element.count > budget / item_bytes) {
       return error(ErrorCode::kInvalidData, source,
-                   "element " + quote(element.name) + " declares " + std::to_string(element.count) +
+                   "element " + quote_token(element.name) + " declares " + std::to_string(element.count) +
                        " items of at least " + std::to_string(item_bytes) +
                        " bytes, more than the " + std::to_string(remaining) +
                        " bytes after the header can hold",

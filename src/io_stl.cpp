@@ -117,8 +117,7 @@ Status parse_ascii(const uint8_t* data, size_t size, const std::string& source,
   auto expect = [&](std::string_view token, std::string_view want) -> Status {
     if (token == want) return {};
     return error(ErrorCode::kInvalidData, source,
-                 "expected '" + std::string(want) + "' but found '" +
-                     std::string(token.substr(0, 40)) + "'",
+                 "expected '" + std::string(want) + "' but found " + quote_token(token),
                  in.where());
   };
   size_t solids = 0;
@@ -154,7 +153,7 @@ Status parse_ascii(const uint8_t* data, size_t size, const std::string& source,
           std::string_view number = in.next_token_on_line();
           if (!parse_float(number, &c)) {
             return error(ErrorCode::kInvalidData, source,
-                         "expected a number but found '" + std::string(number.substr(0, 40)) + "'",
+                         "expected a number but found " + quote_token(number),
                          in.where());
           }
         }
