@@ -106,6 +106,7 @@ Buckets bucket_sort(size_t items, size_t bucket_count, BucketOf bucket_of, KeyOf
   for (size_t b = 0; b < bucket_count; ++b) {
     uint64_t* first = out.keys.data() + out.offsets[b];
     uint64_t* last = out.keys.data() + out.offsets[b + 1];
+    if (last - first <= 1) continue;  // also avoids first + 1 on a null pointer (no keys)
     if (last - first <= 16) {
       for (uint64_t* i = first + 1; i < last; ++i) {  // insertion sort: buckets are tiny
         uint64_t v = *i;
