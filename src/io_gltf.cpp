@@ -884,7 +884,7 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
     visited[static_cast<size_t>(item.node)] = 1;
     const tinygltf::Node& node = model.nodes[static_cast<size_t>(item.node)];
     std::string where = "node " + std::to_string(item.node);
-    Mat4 local;
+    Mat4 local = kIdentity;
     OSTEON_RETURN_IF_ERROR(local_matrix(node, item.node, source, &local));
     Mat4 world = multiply(item.parent_world, local);
     for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) {

@@ -60,6 +60,7 @@ class AtomicFile {
       return error(ErrorCode::kIoError, path_,
                    "cannot create a temporary file beside it: " + errno_text(code));
     }
+    std::setvbuf(file_, nullptr, _IONBF, 0);  // our buffer is the only one
     buffer_.resize(kBufferBytes);
     return Status();
   }
@@ -233,8 +234,8 @@ void write_obj(AtomicFile& out, const Mesh& mesh) {
   bool has_normals = !mesh.normals.empty();
   out.write("# written by osteon\n");
   out.write("o " + (mesh.name.empty() ? std::string("mesh") : one_line(mesh.name)) + "\n");
-  // A line is at most 3 + 3 * (1 + 15) + 1 bytes for positions (shortest float forms are at most
-  // 15 characters) and 2 + 3 * (1 + 3 * 10 + 2) + 1 for a face with normals.
+  // A line is at most 2 + 3 * (1 + 15) + 1 bytes for "vn" (a shortest float form is at most a sign,
+  // 9 digits, a point and a 4-character exponent) and 1 + 3 * (1 + 10 + 2 + 10) + 1 for a face.
   constexpr size_t kMaxLine = 128;
   for (size_t v = 0; v < mesh.vertex_count(); ++v) {
     char* p = reinterpret_cast<char*>(out.reserve(kMaxLine));

@@ -48,7 +48,8 @@ Result<Scene> read_memory(const uint8_t* data, size_t size, const std::string& s
 
 /// Writes one mesh as binary STL, binary little-endian PLY or OBJ, chosen by the extension of
 /// `path`. Writes to a temporary file beside `path` and renames it, so no half-written file is
-/// ever left behind. Errors: kInvalidArgument for another extension, kIoError when writing fails.
+/// ever left behind. Errors: kInvalidArgument for another extension or a mesh that breaks the
+/// Mesh contract (index out of range, NaN position, normals count), kIoError when writing fails.
 Status write_mesh(const std::string& path, const Mesh& mesh);
 
 /// Writes bytes to `path` through a temporary file and a rename.

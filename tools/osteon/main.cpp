@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   std::function<int()> run;
   register_info(app, &run);
   register_phantom(app, &run);
+  register_encode(app, &run);
+  register_decode(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

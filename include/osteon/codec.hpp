@@ -1,0 +1,75 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "osteon/mesh.hpp"
+#include "osteon/status.hpp"
+
+// The osteon mesh codec (paper section IV.A): Edgebreaker connectivity decoded by Spirale
+// Reversi, positions quantized on a grid and predicted by (multi-)parallelograms, rANS entropy
+// coding with context models. The bitstream is specified byte by byte in docs/FORMAT.md.
+
+namespace osteon {
+
+/// A quantization grid: position p is stored as round((p - origin) / step) per axis. Several
+/// parts encoded with the same grid meet without cracks where their vertices coincide.
+struct QuantizationGrid {
+  Vec3 origin{0, 0, 0};
+  double step = 0;  ///< > 0
+};
+
+struct EncodeOptions {
+  /// Grid step = largest bounding-box side / (2^bits - 1); 8..24. Ignored when precision > 0 or
+  /// a grid is given.
+  int bits = 14;
+  /// > 0: the largest position error allowed, in mesh units (step = 2 * precision, so every
+  /// coordinate is within precision of the input).
+  double precision = 0;
+  /// When set (step > 0), use this grid instead of one derived from the mesh (shared grids).
+  QuantizationGrid grid;
+  /// Transmit per-vertex normals (octahedral, predicted); otherwise the decoder computes them.
+  bool normals = false;
+};
+
+/// What encode measured; every field is filled on success.
+struct EncodeReport {
+  size_t bytes = 0;
+  size_t connectivity_bytes = 0;
+  size_t geometry_bytes = 0;
+  size_t normal_bytes = 0;
+  size_t vertices = 0;   ///< vertices coded (after removing unreferenced ones)
+  size_t triangles = 0;  ///< triangles coded
+  size_t degenerate_removed = 0;
+  size_t unreferenced_removed = 0;
+  double connectivity_bits_per_vertex = 0;
+  double geometry_bits_per_vertex = 0;
+  double max_error = 0;  ///< largest per-coordinate |decoded - input| over all vertices
+  double grid_step = 0;
+  QuantizationGrid grid;
+};
+
+/// Encodes a mesh. Degenerate triangles (repeated index or zero area) and unreferenced vertices
+/// are removed first and counted in the report; everything else (several components, boundaries,
+/// handles, non-manifold edges and vertices, inconsistent orientation) is coded exactly: decode()
+/// returns the same triangles with the same orientation, up to a permutation of the vertices, and
+/// every coordinate within half a grid step of the input.
+/// Errors: kInvalidArgument for bits out of 8..24, a negative precision, a grid too fine for the
+/// mesh (more than 2^30 cells a side), or a mesh with non-finite positions or indices out of range.
+Result<std::vector<uint8_t>> encode(const Mesh& mesh, const EncodeOptions& options = {},
+                                    EncodeReport* report = nullptr);
+
+/// Decodes a stream written by encode(). Safe for untrusted bytes: every count is checked against
+/// the bytes that remain before allocation; truncation, bad magic or version, a checksum mismatch
+/// and inconsistent connectivity are errors naming the section and byte offset. Normals are
+/// computed (area-weighted) unless the stream carries them. `source` names the stream in messages.
+Result<Mesh> decode(const uint8_t* data, size_t size,
+                    const std::string& source = "osteon stream");
+
+/// Area-weighted smooth vertex normals (unit length; zero for vertices of zero-area fans).
+std::vector<Vec3> compute_vertex_normals(const Mesh& mesh);
+
+}  // namespace osteon

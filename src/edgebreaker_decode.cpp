@@ -1,0 +1,463 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "connectivity.hpp"
+#include "edgebreaker_internal.hpp"
+#include "entropy.hpp"
+
+// Edgebreaker decoding by Spirale Reversi: the CLERS symbols are read in the reverse of the
+// encoder's traversal, so every face is attached to faces already built and no S offsets are
+// needed. Handles cost one topology split event each; holes and non-manifold cuts are undone at
+// the end (uncut()). The section layout is in docs/FORMAT.md ("Connectivity section").
+//
+// Speed: one pass over the symbols, flat arrays (V, O, a left-most corner and a corner count per
+// vertex), no hashing; a C or a start face finds the edge it closes in O(1) through the left-most
+// corner. Only an S walks a fan, the smaller of the two it merges.
+//
+// Based on: M. Isenburg, J. Snoeyink, "Spirale Reversi: reverse decoding of the Edgebreaker
+// encoding", CGTA 20(1), 2001; J. Rossignac, "Edgebreaker", IEEE TVCG 5(1), 1999; Draco's
+// MeshEdgebreakerDecoderImpl::DecodeConnectivity (left-most corners, topology split events,
+// interior start faces).
+
+namespace osteon::detail {
+
+void SpiraleReversi::begin(uint32_t symbols, uint32_t components, uint32_t vertex_ids,
+                           std::vector<SplitEvent> events) {
+  const size_t corners = 3 * (static_cast<size_t>(symbols) + components);
+  vertex_.assign(corners, kNoVertex);
+  opposite_.assign(corners, kNoCorner);
+  left_.assign(vertex_ids, kNoCorner);
+  count_.assign(vertex_ids, 0);
+  key_.assign(vertex_ids, 0);
+  stack_.clear();
+  stack_.reserve(64);
+  events_ = std::move(events);
+  next_event_ = 0;
+  symbols_ = symbols;
+  components_ = components;
+  faces_ = 0;
+  vertex_ids_ = 0;
+  max_vertex_ids_ = vertex_ids;
+  what_ = "";
+}
+
+// Merges the two copies of the S face's tip: V[p(a)] (left branch) and V[n(b)] (right branch).
+// The smaller fan is relabelled; the merged vertex keeps the right branch's left-most corner.
+bool SpiraleReversi::merge(CornerIndex a, CornerIndex b, VertexIndex* merged) {
+  const VertexIndex vp = vertex_[prev(a)];
+  const VertexIndex vn = vertex_[next(b)];
+  if (vp == vn) return fail("an S merges a vertex with itself");
+  const CornerIndex left_most = left_[vn];
+  const uint32_t total = count_[vp] + count_[vn];
+  VertexIndex keep = vp, drop = vn;
+  if (count_[vp] < count_[vn]) std::swap(keep, drop);
+  // Walk drop's open fan from its left-most corner across its paired edges to the other end.
+  CornerIndex q = left_[drop];
+  for (uint32_t steps = 1;; ++steps) {
+    if (vertex_[q] != drop) return fail("a vertex fan is inconsistent");
+    vertex_[q] = keep;
+    const CornerIndex r = opposite_[prev(q)];
+    if (!r.valid()) {
+      if (steps != count_[drop]) return fail("a vertex fan is inconsistent");
+      break;
+    }
+    if (steps == count_[drop]) return fail("a vertex fan is closed where it must be open");
+    q = prev(r);
+  }
+  count_[drop] = 0;
+  count_[keep] = total;
+  key_[keep] = std::min(key_[vp], key_[vn]);
+  left_[keep] = left_most;
+  *merged = keep;
+  return true;
+}
+
+bool SpiraleReversi::step(uint32_t symbol) {
+  const CornerIndex c0(3 * faces_), c1(3 * faces_ + 1), c2(3 * faces_ + 2);
+  switch (symbol) {
+    case kSymbolC: {
+      // C: the new face closes the fan of v = V[n(a)]. Its right edge w-v is glued to the
+      //    active edge (opposite a), its left edge v-x to v's other free edge, found through
+      //    v's left-most corner q (opposite b = n(q)); x..w becomes the active edge.
+      //
+      //              v
+      //        b's / c0 \ a's
+      //       face/ new  \face
+      //          / c1  c2 \      (dotted: free edges)
+      //         x ........ w
+      if (stack_.empty()) return fail("C with no active edge");
+      const CornerIndex a = stack_.back();
+      const VertexIndex v = vertex_[next(a)], w = vertex_[prev(a)];
+      const CornerIndex q = left_[v];
+      const CornerIndex b = next(q);
+      const VertexIndex x = vertex_[prev(q)];
+      if (opposite_[a].valid() || opposite_[b].valid() || a == b) {
+        return fail("C glues an edge that is not free");
+      }
+      if (x == w || x == v) return fail("C closes a fan of fewer than three faces");
+      vertex_[c0] = v;
+      vertex_[c1] = x;
+      vertex_[c2] = w;
+      glue(c1, a);
+      glue(c2, b);
+      left_[w] = c2;
+      ++count_[v];
+      ++count_[x];
+      ++count_[w];
+      stack_.back() = c0;
+      break;
+    }
+    case kSymbolL: {
+      // L: the right edge is glued to the active edge; x is a new vertex; the left edge and
+      //    x..w stay free.
+      //
+      //              v
+      //            / c0 \ a's
+      //           . new  \face
+      //          . c1  c2 \      (x: new)
+      //         x ........ w
+      if (stack_.empty()) return fail("L with no active edge");
+      const CornerIndex a = stack_.back();
+      if (opposite_[a].valid()) return fail("L glues an edge that is not free");
+      if (vertex_ids_ == max_vertex_ids_) return fail("more vertices than declared");
+      const VertexIndex v = vertex_[next(a)], w = vertex_[prev(a)];
+      vertex_[c0] = v;
+      vertex_[c1] = new_vertex(c1);
+      vertex_[c2] = w;
+      glue(c1, a);
+      left_[w] = c2;
+      ++count_[v];
+      ++count_[w];
+      stack_.back() = c0;
+      break;
+    }
+    case kSymbolR: {
+      // R: the left edge is glued to the active edge; x is a new vertex; the right edge and
+      //    y..x stay free.
+      //
+      //              v
+      //      a's   / c0 \      (x: new)
+      //      face / new  .
+      //          / c1  c2 .
+      //         y ........ x
+      if (stack_.empty()) return fail("R with no active edge");
+      const CornerIndex a = stack_.back();
+      if (opposite_[a].valid()) return fail("R glues an edge that is not free");
+      if (vertex_ids_ == max_vertex_ids_) return fail("more vertices than declared");
+      const VertexIndex v = vertex_[prev(a)], y = vertex_[next(a)];
+      vertex_[c0] = v;
+      vertex_[c1] = y;
+      vertex_[c2] = new_vertex(c2);
+      glue(c2, a);
+      left_[v] = c0;
+      ++count_[v];
+      ++count_[y];
+      stack_.back() = c0;
+      break;
+    }
+    case kSymbolE: {
+      // E: three new vertices, nothing glued: the last face of a branch of the traversal,
+      //    pushed as a new active edge.
+      //
+      //              v0
+      //            . c0 .
+      //           .  new .
+      //          . c1  c2 .
+      //        v1 ........ v2
+      if (max_vertex_ids_ - vertex_ids_ < 3) return fail("more vertices than declared");
+      vertex_[c0] = new_vertex(c0);
+      vertex_[c1] = new_vertex(c1);
+      vertex_[c2] = new_vertex(c2);
+      stack_.push_back(c0);
+      break;
+    }
+    case kSymbolS: {
+      // S: the right edge is glued to the active edge b (popped), the left edge to a: the edge
+      //    below it on the stack, or, where the encoder's left branch was already visited through
+      //    a handle, a split event's edge. The tip's two copies V[p(a)] and V[n(b)] merge.
+      //
+      //              v
+      //      a's   / c0 \  b's
+      //      face / new  \ face
+      //          / c1  c2 \      (v: V[p(a)] and V[n(b)] merged)
+      //         y ........ w
+      if (stack_.empty()) return fail("S with no active edge");
+      const CornerIndex b = stack_.back();
+      stack_.pop_back();
+      CornerIndex a;
+      if (next_event_ < events_.size() && events_[next_event_].split == faces_) {
+        const SplitEvent& e = events_[next_event_++];
+        a = CornerIndex(3 * e.source + 1 + e.edge);
+        stack_.push_back(a);
+      } else {
+        if (stack_.empty()) return fail("S with one active edge");
+        a = stack_.back();
+      }
+      if (opposite_[a].valid() || opposite_[b].valid() || a == b) {
+        return fail("S glues an edge that is not free");
+      }
+      VertexIndex v;
+      if (!merge(a, b, &v)) return false;
+      const VertexIndex y = vertex_[next(a)], w = vertex_[prev(b)];
+      vertex_[c0] = v;
+      vertex_[c1] = y;
+      vertex_[c2] = w;
+      glue(c1, b);
+      glue(c2, a);
+      left_[w] = c2;
+      ++count_[v];
+      ++count_[y];
+      ++count_[w];
+      stack_.back() = c0;
+      break;
+    }
+    default:
+      return fail("unknown symbol");
+  }
+  ++faces_;
+  return true;
+}
+
+bool SpiraleReversi::close_components() {
+  if (next_event_ != events_.size()) return fail("a split event names a face that is not an S");
+  if (stack_.size() != components_) return fail("the traversal does not end in its components");
+  // Components were pushed last-encoded first: pop the first-encoded one first.
+  while (!stack_.empty()) {
+    // Start face: e0 opposite the component's last active edge a (e1 on V[p(a)], e2 on V[n(a)]);
+    // its other two edges close the fans of V[n(a)] and of x through their left-most corners.
+    //
+    //              x
+    //            / e0  \       (e1's edge closes x's fan, e2's
+    //           / start \       edge closes V[n(a)]'s fan)
+    //          / e1   e2 \      e1 on V[p(a)], e2 on V[n(a)]
+    //         ------------
+    //            a's face
+    const CornerIndex a = stack_.back();
+    stack_.pop_back();
+    const CornerIndex e0(3 * faces_), e1(3 * faces_ + 1), e2(3 * faces_ + 2);
+    const VertexIndex v1 = vertex_[prev(a)], v2 = vertex_[next(a)];
+    const CornerIndex q2 = left_[v2];
+    const VertexIndex x = vertex_[prev(q2)];
+    const CornerIndex qx = left_[x];
+    const CornerIndex b = next(q2), c = next(qx);
+    if (opposite_[a].valid() || opposite_[b].valid() || opposite_[c].valid() || a == b ||
+        b == c || a == c) {
+      return fail("a start face glues an edge that is not free");
+    }
+    if (vertex_[prev(qx)] != v1 || x == v1 || x == v2) {
+      return fail("a component does not close into a start face");
+    }
+    vertex_[e0] = x;
+    vertex_[e1] = v1;
+    vertex_[e2] = v2;
+    glue(e0, a);
+    glue(e1, b);
+    glue(e2, c);
+    ++count_[x];
+    ++count_[v1];
+    ++count_[v2];
+    ++faces_;
+  }
+  return true;
+}
+
+bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
+           const std::vector<std::pair<uint32_t, uint32_t>>& glue, uint32_t triangle_count,
+           uint32_t vertex_count, std::vector<uint32_t>* indices,
+           std::vector<VertexIndex>* final_of_id, const char** what) {
+  auto fail = [&](const char* message) {
+    *what = message;
+    return false;
+  };
+  // The final vertex of every vertex id, or a mark. Live ids are those with corners (an S
+  // relabels every corner of the id it drops).
+  constexpr uint32_t kFree = 0xFFFFFFFFu;   // a dead id, or not numbered yet
+  constexpr uint32_t kDummy = 0xFFFFFFFEu;  // a dummy vertex: its faces are dropped
+  constexpr uint32_t kCopy = 0xFFFFFFFDu;   // a glued copy: numbered as its original
+  const uint32_t ids = core.vertex_ids();
+  auto live = [&](uint32_t id) { return id < ids && core.valence(VertexIndex(id)) > 0; };
+  std::vector<uint32_t> final_id(ids, kFree);
+  for (uint32_t d : dummies) {
+    if (!live(d) || final_id[d] != kFree) return fail("a dummy vertex is not a vertex or repeated");
+    final_id[d] = kDummy;
+  }
+  for (const auto& [copy, original] : glue) {
+    if (!live(copy) || !live(original) || copy == original || final_id[copy] != kFree) {
+      return fail("a glued vertex pair is not a pair of vertices, or repeated");
+    }
+    final_id[copy] = kCopy;
+  }
+  for (const auto& [copy, original] : glue) {
+    if (final_id[original] != kFree) return fail("a vertex is glued to a copy or a dummy");
+  }
+  // Number the other live ids by key: by_key[key] = the live id with that key (keys of live ids
+  // are distinct: each is the smallest of the ids merged into one vertex).
+  std::vector<uint32_t> by_key(ids, kFree);
+  for (uint32_t id = 0; id < ids; ++id) {
+    if (live(id)) by_key[core.key(VertexIndex(id))] = id;
+  }
+  uint32_t next_final = 0;
+  for (uint32_t k = 0; k < ids; ++k) {
+    const uint32_t id = by_key[k];
+    if (id == kFree || final_id[id] != kFree) continue;
+    if (next_final == vertex_count) return fail("more vertices than declared");
+    final_id[id] = next_final++;
+  }
+  if (next_final != vertex_count) return fail("fewer vertices than declared");
+  for (const auto& [copy, original] : glue) final_id[copy] = final_id[original];
+
+  // Faces in decoding order, dummy faces dropped.
+  const size_t wanted = 3 * static_cast<size_t>(triangle_count);
+  indices->resize(wanted);
+  uint32_t* out = indices->data();
+  size_t written = 0;
+  std::vector<uint8_t> used(vertex_count, 0);
+  const VertexIndex* corner_vertex = core.corner_vertex().data();
+  const uint32_t faces = core.faces();
+  for (uint32_t f = 0; f < faces; ++f) {
+    const uint32_t a = final_id[corner_vertex[3 * f].value];
+    const uint32_t b = final_id[corner_vertex[3 * f + 1].value];
+    const uint32_t c = final_id[corner_vertex[3 * f + 2].value];
+    if (std::max({a, b, c}) >= vertex_count) [[unlikely]] {
+      if (a == kDummy || b == kDummy || c == kDummy) continue;
+      return fail("a face uses a vertex that was merged away");
+    }
+    if (a == b || b == c || a == c) return fail("a decoded triangle repeats a vertex");
+    if (written == wanted) return fail("more triangles than declared");
+    out[written] = a;
+    out[written + 1] = b;
+    out[written + 2] = c;
+    written += 3;
+    used[a] = used[b] = used[c] = 1;
+  }
+  if (written != wanted) return fail("fewer triangles than declared");
+  if (std::find(used.begin(), used.end(), 0) != used.end()) {
+    return fail("a vertex is used by dummy faces only");
+  }
+  if (final_of_id) {
+    final_of_id->assign(ids, kNoVertex);
+    for (uint32_t v = 0; v < ids; ++v) {
+      if (final_id[v] < vertex_count) (*final_of_id)[v] = VertexIndex(final_id[v]);
+    }
+  }
+  return true;
+}
+
+Result<std::vector<uint32_t>> decode_connectivity(ByteReader& in, uint32_t vertex_count,
+                                                  uint32_t triangle_count,
+                                                  const std::string& source) {
+  size_t at = in.offset();
+  auto bad = [&](const std::string& what) {
+    return error(ErrorCode::kInvalidData, source, "connectivity: " + what, at_byte(at));
+  };
+  auto read = [&](uint64_t* value, const char* what) -> Status {
+    at = in.offset();
+    if (!read_varint(in, value)) return bad(std::string("truncated ") + what);
+    return Status::ok_status();
+  };
+
+  // Counts, each bounded before anything is allocated. Faces of the closed mesh = the triangles
+  // plus one dummy face per boundary edge (at most three per triangle) = symbols + components.
+  uint64_t symbols = 0, components = 0, vertex_ids = 0;
+  OSTEON_RETURN_IF_ERROR(read(&symbols, "symbol count"));
+  if (symbols > 4 * static_cast<uint64_t>(triangle_count)) {
+    return bad(std::to_string(symbols) + " symbols for " + std::to_string(triangle_count) +
+               " triangles (at most 4 per triangle)");
+  }
+  OSTEON_RETURN_IF_ERROR(read(&components, "component count"));
+  if (components > symbols || symbols + components > 4 * static_cast<uint64_t>(triangle_count) ||
+      (triangle_count > 0 && components == 0)) {
+    return bad(std::to_string(components) + " components for " + std::to_string(symbols) +
+               " symbols");
+  }
+  OSTEON_RETURN_IF_ERROR(read(&vertex_ids, "vertex id count"));
+  if (vertex_ids > 3 * symbols || vertex_ids < vertex_count) {
+    return bad(std::to_string(vertex_ids) + " vertex ids for " + std::to_string(symbols) +
+               " symbols and " + std::to_string(vertex_count) + " vertices");
+  }
+
+  uint64_t count = 0;
+  OSTEON_RETURN_IF_ERROR(read(&count, "split event count"));
+  if (count > symbols || !in.fits(count, 2)) {
+    return bad(std::to_string(count) + " split events for " + std::to_string(symbols) +
+               " symbols and " + std::to_string(in.remaining()) + " bytes");
+  }
+  std::vector<SplitEvent> events(count);
+  uint64_t previous = 0;
+  for (uint64_t i = 0; i < count; ++i) {
+    uint64_t delta = 0, back = 0;
+    OSTEON_RETURN_IF_ERROR(read(&delta, "split event"));
+    OSTEON_RETURN_IF_ERROR(read(&back, "split event"));
+    const uint64_t split = i == 0 ? delta : previous + 1 + delta;
+    if (delta >= symbols || split >= symbols || (back >> 1) >= split) {
+      return bad("split event out of range");
+    }
+    events[i] = {static_cast<uint32_t>(split), static_cast<uint32_t>(split - 1 - (back >> 1)),
+                 static_cast<uint32_t>(back & 1)};
+    previous = split;
+  }
+
+  auto read_ids = [&](std::vector<uint32_t>* ids, const char* what) -> Status {
+    uint64_t n = 0;
+    OSTEON_RETURN_IF_ERROR(read(&n, what));
+    if (n > vertex_ids || !in.fits(n, 1)) return bad(std::string("too many ") + what);
+    ids->resize(n);
+    uint64_t last = 0;
+    for (uint64_t i = 0; i < n; ++i) {
+      uint64_t delta = 0;
+      OSTEON_RETURN_IF_ERROR(read(&delta, what));
+      const uint64_t id = i == 0 ? delta : last + 1 + delta;
+      if (delta >= vertex_ids || id >= vertex_ids) return bad(std::string(what) + " out of range");
+      (*ids)[i] = static_cast<uint32_t>(id);
+      last = id;
+    }
+    return Status::ok_status();
+  };
+  std::vector<uint32_t> dummies, copies;
+  OSTEON_RETURN_IF_ERROR(read_ids(&dummies, "dummy vertices"));
+  OSTEON_RETURN_IF_ERROR(read_ids(&copies, "glued vertices"));
+  std::vector<std::pair<uint32_t, uint32_t>> glue(copies.size());
+  for (size_t i = 0; i < copies.size(); ++i) {
+    uint64_t original = 0;
+    OSTEON_RETURN_IF_ERROR(read(&original, "glued vertex"));
+    if (original >= vertex_ids) return bad("glued vertex out of range");
+    glue[i] = {copies[i], static_cast<uint32_t>(original)};
+  }
+
+  at = in.offset();
+  uint8_t model = 0;
+  if (!in.read_le(&model)) return bad("truncated context model");
+  if (model >= kContextModelCount) return bad("unknown context model " + std::to_string(model));
+  SymbolContext context(kContextModels[model]);
+  at = in.offset();
+  SymbolDecoder decoder;
+  OSTEON_RETURN_IF_ERROR(decoder.init(in, kSymbolCount, context.contexts(), source, "connectivity"));
+  if (decoder.symbols_left() != symbols) {
+    return bad("the symbol section holds " + std::to_string(decoder.symbols_left()) +
+               " symbols, not " + std::to_string(symbols));
+  }
+
+  SpiraleReversi core;
+  core.begin(static_cast<uint32_t>(symbols), static_cast<uint32_t>(components),
+             static_cast<uint32_t>(vertex_ids), std::move(events));
+  for (uint64_t i = 0; i < symbols; ++i) {
+    const uint32_t symbol = decoder.get(context.get(core.active_valence()));
+    if (!decoder.ok()) break;
+    if (!core.step(symbol)) return bad(std::string(core.what()) + " at symbol " + std::to_string(i));
+    context.update(symbol);
+  }
+  OSTEON_RETURN_IF_ERROR(decoder.finish(source, "connectivity"));
+  if (!core.close_components()) return bad(core.what());
+
+  std::vector<uint32_t> indices;
+  const char* what = "";
+  if (!uncut(core, dummies, glue, triangle_count, vertex_count, &indices, nullptr, &what)) {
+    return bad(what);
+  }
+  return indices;
+}
+
+}  // namespace osteon::detail

@@ -1,0 +1,42 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "byte_io.hpp"
+#include "osteon/codec.hpp"
+#include "osteon/mesh.hpp"
+#include "osteon/status.hpp"
+
+// The geometry stage of the codec (src/quantize.cpp, src/parallelogram.cpp): positions on a grid,
+// predicted in vertex order from already-decoded neighbours, residuals entropy-coded. Both sides
+// run on the same decoded connectivity, so the encoder needs nothing from the connectivity coder
+// beyond the decoded triangle list and its vertex order.
+
+namespace osteon::detail {
+
+/// Quantized coordinates, one int32 triple per vertex.
+struct QuantizedPositions {
+  std::vector<int32_t> xyz;  ///< 3 per vertex
+};
+
+/// The grid encode() uses for `options` on `positions` (see EncodeOptions). Errors for options out
+/// of range or a grid with more than 2^30 cells a side.
+Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
+                                     const EncodeOptions& options);
+QuantizedPositions quantize(const std::vector<Vec3>& positions, const QuantizationGrid& grid);
+std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid& grid);
+
+/// Encodes quantized positions (in decoded vertex order) given the decoded triangles: vertices in
+/// id order are predicted by the average of all parallelograms available across already-decoded
+/// triangles (the paper's eq. (1)), else by a decoded neighbour, else by the previous vertex;
+/// residuals are entropy-coded. Appends the geometry section to `out`.
+void encode_geometry(const std::vector<uint32_t>& indices, const QuantizedPositions& q,
+                     std::vector<uint8_t>* out);
+/// Decodes what encode_geometry wrote, for `vertex_count` vertices.
+Result<QuantizedPositions> decode_geometry(ByteReader& in, const std::vector<uint32_t>& indices,
+                                           uint32_t vertex_count, const std::string& source);
+
+}  // namespace osteon::detail

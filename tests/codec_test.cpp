@@ -1,0 +1,216 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "osteon/codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "fixtures.hpp"
+#include "osteon/io.hpp"
+#include "osteon/phantom.hpp"
+
+namespace osteon {
+namespace {
+
+// The triangles of `mesh` as sorted, rotation-normalised position triples after the codec has
+// cleaned it (degenerate triangles and unreferenced vertices removed), quantized on `grid`.
+std::vector<std::array<float, 9>> expected_triangles(const Mesh& input, const QuantizationGrid& grid) {
+  Mesh mesh = input;
+  remove_degenerate_triangles(mesh);
+  remove_unreferenced_vertices(mesh);
+  for (Vec3& p : mesh.positions) {
+    auto snap = [&](float v, float o) {
+      return static_cast<float>(o + std::llround((double(v) - o) / grid.step) * grid.step);
+    };
+    p = {snap(p.x, grid.origin.x), snap(p.y, grid.origin.y), snap(p.z, grid.origin.z)};
+  }
+  return test::canonical_triangles(mesh);
+}
+
+// Encodes, decodes and checks: same triangles with the same orientation (compared through their
+// quantized positions, so vertex order does not matter), every coordinate within half a step.
+void expect_round_trip(const Mesh& mesh, const EncodeOptions& options = {}) {
+  EncodeReport report;
+  Result<std::vector<uint8_t>> bytes = encode(mesh, options, &report);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  EXPECT_EQ(report.bytes, bytes->size());
+  Result<Mesh> decoded = decode(bytes->data(), bytes->size());
+  ASSERT_TRUE(decoded.ok()) << decoded.status().message();
+  EXPECT_EQ(decoded->triangle_count(), report.triangles);
+  EXPECT_EQ(decoded->vertex_count(), report.vertices);
+  EXPECT_EQ(test::canonical_triangles(*decoded), expected_triangles(mesh, report.grid));
+  // Half a step, plus the float output's own rounding (half an ulp of the largest coordinate).
+  Aabb box = bounding_box(mesh);
+  double largest = std::max({std::fabs(box.min.x), std::fabs(box.min.y), std::fabs(box.min.z),
+                             std::fabs(box.max.x), std::fabs(box.max.y), std::fabs(box.max.z)});
+  EXPECT_LE(report.max_error, report.grid_step * 0.5 + largest * 0x1p-24 * 1.01);
+  EXPECT_EQ(decoded->normals.size(), decoded->vertex_count());
+}
+
+TEST(Codec, RoundTripsEveryMeshCategory) {
+  for (const auto& [category, mesh] : test::mesh_categories()) {
+    SCOPED_TRACE(category);
+    expect_round_trip(mesh);
+  }
+}
+
+TEST(Codec, RoundTripsThePhantomSkeleton) {
+  Phantom phantom = make_phantom({.seed = 3, .detail = 2});
+  for (const Mesh& part : phantom.scene.parts) {
+    SCOPED_TRACE(part.name);
+    expect_round_trip(part);
+  }
+}
+
+TEST(Codec, BitsAndPrecisionSetTheGridStep) {
+  Mesh sphere = make_icosphere(3, 50.0f);
+  for (int bits : {8, 12, 16, 20, 24}) {
+    EncodeOptions options;
+    options.bits = bits;
+    EncodeReport report;
+    ASSERT_TRUE(encode(sphere, options, &report).ok());
+    EXPECT_NEAR(report.grid_step, 100.0 / double((1u << bits) - 1), 1e-3 * report.grid_step);
+    EXPECT_LE(report.max_error, report.grid_step / 2 + 1e-5);
+    expect_round_trip(sphere, options);
+  }
+  EncodeOptions precise;
+  precise.precision = 0.05;
+  EncodeReport report;
+  ASSERT_TRUE(encode(sphere, precise, &report).ok());
+  EXPECT_DOUBLE_EQ(report.grid_step, 0.1);
+  EXPECT_LE(report.max_error, 0.05 + 1e-5);
+}
+
+TEST(Codec, SharedGridMakesPartsMeetWithoutCracks) {
+  // Two boxes sharing a face: on one grid, the shared corners decode to identical positions.
+  Mesh a = make_box({0, 0, 0}, {1.01f, 1, 1});
+  Mesh b = make_box({1.01f, 0, 0}, {3.3f, 1, 1});
+  EncodeOptions options;
+  options.grid.origin = {-1, -1, -1};
+  options.grid.step = 0.007;
+  auto ra = encode(a, options), rb = encode(b, options);
+  ASSERT_TRUE(ra.ok() && rb.ok());
+  auto da = decode(ra->data(), ra->size()), db = decode(rb->data(), rb->size());
+  ASSERT_TRUE(da.ok() && db.ok());
+  size_t shared = 0;
+  for (const Vec3& p : da->positions)
+    for (const Vec3& q : db->positions) shared += p == q;
+  EXPECT_EQ(shared, 4u);
+}
+
+TEST(Codec, RejectsBadOptionsAndBadMeshes) {
+  Mesh sphere = make_icosphere(1);
+  EncodeOptions options;
+  options.bits = 7;
+  EXPECT_EQ(encode(sphere, options).status().code(), ErrorCode::kInvalidArgument);
+  options.bits = 25;
+  EXPECT_NE(encode(sphere, options).status().message().find("between 8 and 24"), std::string::npos);
+  options = {};
+  options.precision = 1e-12;
+  EXPECT_NE(encode(sphere, options).status().message().find("too fine"), std::string::npos);
+  Mesh bad = sphere;
+  bad.positions[3].x = std::nanf("");
+  EXPECT_NE(encode(bad).status().message().find("NaN"), std::string::npos);
+  bad = sphere;
+  bad.indices[5] = 999;
+  EXPECT_NE(encode(bad).status().message().find("out of range"), std::string::npos);
+}
+
+TEST(Codec, EmptyMeshRoundTrips) {
+  Result<std::vector<uint8_t>> bytes = encode(Mesh{});
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  Result<Mesh> decoded = decode(bytes->data(), bytes->size());
+  ASSERT_TRUE(decoded.ok()) << decoded.status().message();
+  EXPECT_EQ(decoded->triangle_count(), 0u);
+}
+
+std::vector<uint8_t> small_stream() {
+  auto bytes = encode(make_torus(2, 0.5f, 8, 6));
+  EXPECT_TRUE(bytes.ok());
+  return bytes.ok() ? bytes.value() : std::vector<uint8_t>{};
+}
+
+TEST(Codec, TruncationAtEveryByteIsAnError) {
+  std::vector<uint8_t> bytes = small_stream();
+  for (size_t cut = 0; cut < bytes.size(); ++cut) {
+    Result<Mesh> r = decode(bytes.data(), cut, "cut.ostm");
+    ASSERT_FALSE(r.ok()) << "cut at " << cut;
+    EXPECT_EQ(r.status().message().rfind("cut.ostm: ", 0), 0u) << r.status().message();
+  }
+}
+
+TEST(Codec, FlippedBitsFailTheChecksum) {
+  std::vector<uint8_t> bytes = small_stream();
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    std::vector<uint8_t> copy = bytes;
+    copy[i] ^= uint8_t(1u << (i % 8));
+    Result<Mesh> r = decode(copy.data(), copy.size());
+    EXPECT_FALSE(r.ok()) << "flip in byte " << i;
+  }
+}
+
+// Corrupts a stream past the checksum (the checksum is recomputed) to reach the inner decoders.
+void set_crc(std::vector<uint8_t>& bytes) {
+  uint32_t crc = 0xffffffffu;
+  for (size_t i = 0; i + 4 < bytes.size(); ++i) {
+    crc ^= bytes[i];
+    for (int k = 0; k < 8; ++k) crc = (crc & 1) ? 0xEDB88320u ^ (crc >> 1) : crc >> 1;
+  }
+  crc ^= 0xffffffffu;
+  std::memcpy(bytes.data() + bytes.size() - 4, &crc, 4);
+}
+
+TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
+  std::vector<uint8_t> bytes = small_stream();
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 3000; ++trial) {
+    std::vector<uint8_t> copy = bytes;
+    int flips = 1 + trial % 4;
+    for (int f = 0; f < flips; ++f) {
+      size_t i = 60 + rng() % (copy.size() - 64);  // inside the sections
+      copy[i] ^= uint8_t(1u << (rng() % 8));
+    }
+    set_crc(copy);
+    Result<Mesh> r = decode(copy.data(), copy.size());
+    if (r.ok()) {
+      for (uint32_t index : r->indices) ASSERT_LT(index, r->vertex_count());
+    }
+  }
+}
+
+TEST(Codec, HeaderErrorsAreNamed) {
+  std::vector<uint8_t> bytes = small_stream();
+  std::vector<uint8_t> magic = bytes;
+  magic[0] = 'X';
+  EXPECT_NE(decode(magic.data(), magic.size()).status().message().find("wrong magic"),
+            std::string::npos);
+  std::vector<uint8_t> version = bytes;
+  version[4] = 9;
+  EXPECT_NE(decode(version.data(), version.size()).status().message().find("stream version 9"),
+            std::string::npos);
+  std::vector<uint8_t> huge = bytes;
+  uint32_t count = 0x0fffffff;
+  std::memcpy(huge.data() + 12, &count, 4);
+  set_crc(huge);
+  EXPECT_NE(decode(huge.data(), huge.size()).status().message().find("implausible counts"),
+            std::string::npos);
+  EXPECT_NE(decode(bytes.data(), 10).status().message().find("too short"), std::string::npos);
+}
+
+TEST(Codec, RealMeshesRoundTrip) {
+  OSTEON_REQUIRE_SHARED_DATA(data);
+  for (const char* file : {"MyoHub__myo_sim/meshes/arm_r_humerus.stl",   // non-manifold edges
+                           "aHer-dev__3DAnatomy/models/bones/FJ101_BP62633_FMA23725_Right_trapezoid.glb",
+                           "stity__spl-abdominal-atlas/Data/Model_299_Pelvis.vtk",
+                           "cearto__zen__MeshsegBenchmark/data/off/101.off"}) {
+    SCOPED_TRACE(file);
+    Result<Scene> scene = read_path(data + "/" + file);
+    ASSERT_TRUE(scene.ok()) << scene.status().message();
+    expect_round_trip(scene->parts[0]);
+  }
+}
+
+}  // namespace
+}  // namespace osteon

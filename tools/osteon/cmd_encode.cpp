@@ -1,0 +1,144 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "cli.hpp"
+#include "osteon/codec.hpp"
+#include "osteon/io.hpp"
+
+// osteon encode IN -o OUT [--bits N | --precision E] [--json]
+// osteon decode IN -o OUT.{ply,stl,obj}
+
+namespace osteon::cli {
+
+namespace {
+
+struct EncodeArgs {
+  std::string input;
+  std::string output;
+  int bits = 14;
+  double precision = 0;
+  bool json = false;
+};
+
+struct DecodeArgs {
+  std::string input;
+  std::string output;
+  bool json = false;
+};
+
+// Every part of the input in one mesh (a codec stream holds one mesh).
+Mesh merge_parts(Scene& scene) {
+  if (scene.parts.size() == 1) return std::move(scene.parts[0]);
+  Mesh merged;
+  merged.name = "merged";
+  for (Mesh& part : scene.parts) {
+    uint32_t base = static_cast<uint32_t>(merged.positions.size());
+    merged.positions.insert(merged.positions.end(), part.positions.begin(), part.positions.end());
+    for (uint32_t i : part.indices) merged.indices.push_back(base + i);
+  }
+  return merged;
+}
+
+int run_encode(const EncodeArgs& args) {
+  Result<Scene> scene = read_path(args.input);
+  if (!scene.ok()) return fail(scene.status());
+  size_t parts = scene->parts.size();
+  Mesh mesh = merge_parts(scene.value());
+  EncodeOptions options;
+  options.bits = args.bits;
+  options.precision = args.precision;
+  EncodeReport report;
+  auto start = std::chrono::steady_clock::now();
+  Result<std::vector<uint8_t>> bytes = encode(mesh, options, &report);
+  double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                  .count();
+  if (!bytes.ok()) return fail(args.input + ": " + bytes.status().message());
+  Status written = write_file_atomic(args.output, bytes->data(), bytes->size());
+  if (!written.ok()) return fail(written);
+  if (args.json) {
+    nlohmann::json j = {{"input", args.input},
+                        {"output", args.output},
+                        {"parts", parts},
+                        {"vertices", report.vertices},
+                        {"triangles", report.triangles},
+                        {"degenerate_removed", report.degenerate_removed},
+                        {"unreferenced_removed", report.unreferenced_removed},
+                        {"bytes", report.bytes},
+                        {"connectivity_bytes", report.connectivity_bytes},
+                        {"geometry_bytes", report.geometry_bytes},
+                        {"connectivity_bits_per_vertex", report.connectivity_bits_per_vertex},
+                        {"geometry_bits_per_vertex", report.geometry_bits_per_vertex},
+                        {"bits_per_vertex", report.vertices ? 8.0 * report.bytes / report.vertices : 0.0},
+                        {"max_error", report.max_error},
+                        {"grid_step", report.grid_step},
+                        {"encode_ms", ms}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf(
+        "%s: %zu vertices, %zu triangles -> %zu bytes (connectivity %.3f, geometry %.3f bits/vertex), "
+        "grid step %.6g, max error %.6g, %.1f ms\n",
+        args.output.c_str(), report.vertices, report.triangles, report.bytes,
+        report.connectivity_bits_per_vertex, report.geometry_bits_per_vertex, report.grid_step,
+        report.max_error, ms);
+  }
+  return kExitOk;
+}
+
+int run_decode(const DecodeArgs& args) {
+  std::ifstream in(args.input, std::ios::binary);
+  if (!in) return fail(args.input + ": cannot open");
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  auto start = std::chrono::steady_clock::now();
+  Result<Mesh> mesh = decode(bytes.data(), bytes.size(), args.input);
+  double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                  .count();
+  if (!mesh.ok()) return fail(mesh.status());
+  Status written = write_mesh(args.output, mesh.value());
+  if (!written.ok()) return fail(written);
+  if (args.json) {
+    nlohmann::json j = {{"input", args.input},          {"output", args.output},
+                        {"vertices", mesh->vertex_count()}, {"triangles", mesh->triangle_count()},
+                        {"bytes", bytes.size()},         {"decode_ms", ms}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::printf("%s: %zu vertices, %zu triangles, decoded in %.1f ms\n", args.output.c_str(),
+                mesh->vertex_count(), mesh->triangle_count(), ms);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void register_encode(CLI::App& app, std::function<int()>* run) {
+  auto args = std::make_shared<EncodeArgs>();
+  CLI::App* cmd = app.add_subcommand("encode", "Compress one mesh (all parts of IN merged)");
+  cmd->add_option("IN", args->input, "Mesh file or folder")->required();
+  cmd->add_option("-o,--output", args->output, "The compressed stream to write")->required();
+  auto* bits = cmd->add_option("--bits", args->bits, "Position bits, 8..24 (default 14)")
+                   ->check(CLI::Range(8, 24));
+  cmd->add_option("--precision", args->precision,
+                  "Largest position error, in mesh units (e.g. 0.05 for 0.05 mm)")
+      ->check(CLI::PositiveNumber)
+      ->excludes(bits);
+  cmd->add_flag("--json", args->json, "Print a JSON report");
+  cmd->callback([args, run] { *run = [args] { return run_encode(*args); }; });
+}
+
+void register_decode(CLI::App& app, std::function<int()>* run) {
+  auto args = std::make_shared<DecodeArgs>();
+  CLI::App* cmd = app.add_subcommand("decode", "Decompress a stream to PLY, STL or OBJ");
+  cmd->add_option("IN", args->input, "The compressed stream")->required();
+  cmd->add_option("-o,--output", args->output, "Mesh file to write (.ply, .stl or .obj)")
+      ->required();
+  cmd->add_flag("--json", args->json, "Print a JSON report");
+  cmd->callback([args, run] { *run = [args] { return run_decode(*args); }; });
+}
+
+}  // namespace osteon::cli
