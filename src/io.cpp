@@ -202,8 +202,8 @@ Status read_one_file(const std::string& path, const std::string& name, const Rea
     MappedFile mapped;
     OSTEON_RETURN_IF_ERROR(mapped.map(fileno(file), static_cast<size_t>(size), path));
     format = pick_format(mapped.data(), mapped.size(), path, format);
-    std::string base_dir = fs::path(path).parent_path().string();
-    if (base_dir.empty()) base_dir = ".";
+    fs::path parent = fs::path(path).parent_path();
+    const std::string base_dir = parent.empty() ? std::string(".") : parent.string();
     OSTEON_RETURN_IF_ERROR(
         dispatch(format, mapped.data(), mapped.size(), path, base_dir, options, &file_scene));
   }
