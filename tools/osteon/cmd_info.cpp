@@ -189,11 +189,19 @@ int run_info(const InfoArgs& args) {
     print_row("total (" + std::to_string(parts.size()) + " parts)", total, total_stored,
               total_removed);
   }
-  std::printf("bbox [%g %g %g] - [%g %g %g] %s%s, volume %.6g\n", total.bbox.min.x,
-              total.bbox.min.y, total.bbox.min.z, total.bbox.max.x, total.bbox.max.y,
-              total.bbox.max.z, unit_name(first.unit),
+  // A signed volume means something only for closed parts; open ones are left out of this line.
+  double closed_volume = 0;
+  size_t closed_parts = 0;
+  for (const PartInfo& p : parts) {
+    if (!p.report.closed) continue;
+    closed_volume += p.report.volume;
+    ++closed_parts;
+  }
+  std::printf("bbox [%g %g %g] - [%g %g %g] %s%s; volume of the %zu closed parts %.6g\n",
+              total.bbox.min.x, total.bbox.min.y, total.bbox.min.z, total.bbox.max.x,
+              total.bbox.max.y, total.bbox.max.z, unit_name(first.unit),
               first.unit_source == UnitSource::kGuessed ? " (unit guessed from size)" : "",
-              total.volume);
+              closed_parts, closed_volume);
   return kExitOk;
 }
 
