@@ -56,8 +56,12 @@ int64_t floor_div(int64_t a, int64_t b) {  // b > 0
   return (a % b != 0 && a < 0) ? q - 1 : q;
 }
 
-inline uint32_t next_corner(uint32_t c) { return c % 3 == 2 ? c - 2 : c + 1; }
-inline uint32_t prev_corner(uint32_t c) { return c % 3 == 0 ? c + 2 : c - 1; }
+inline uint32_t next_corner(uint32_t c) {
+  return c % 3 == 2 ? c - 2 : c + 1;
+}
+inline uint32_t prev_corner(uint32_t c) {
+  return c % 3 == 0 ? c + 2 : c - 1;
+}
 
 // The prediction of vertex v from the vertices before it; both sides call this with the same
 // `q` for vertices < v, so encoder and decoder agree bit for bit.
@@ -126,7 +130,9 @@ struct ContextModel {
   }
 };
 
-inline uint32_t bit_length(uint64_t z) { return z == 0 ? 0 : 64 - uint32_t(__builtin_clzll(z)); }
+inline uint32_t bit_length(uint64_t z) {
+  return z == 0 ? 0 : 64 - uint32_t(__builtin_clzll(z));
+}
 
 inline uint32_t residual_symbol(uint64_t z) {
   if (z < 4) return uint32_t(z);

@@ -47,12 +47,10 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
     grid.step = side > 0 ? side / double((uint32_t{1} << options.bits) - 1) : 1.0;
   }
   // Every quantized coordinate must stay within +-2^30 so that residuals fit 32 bits.
-  double reach = std::max({std::fabs(double(lo.x) - grid.origin.x),
-                           std::fabs(double(lo.y) - grid.origin.y),
-                           std::fabs(double(lo.z) - grid.origin.z),
-                           std::fabs(double(hi.x) - grid.origin.x),
-                           std::fabs(double(hi.y) - grid.origin.y),
-                           std::fabs(double(hi.z) - grid.origin.z)});
+  double reach =
+      std::max({std::fabs(double(lo.x) - grid.origin.x), std::fabs(double(lo.y) - grid.origin.y),
+                std::fabs(double(lo.z) - grid.origin.z), std::fabs(double(hi.x) - grid.origin.x),
+                std::fabs(double(hi.y) - grid.origin.y), std::fabs(double(hi.z) - grid.origin.z)});
   if (reach / grid.step >= kMaxCells) {
     return error(ErrorCode::kInvalidArgument, "",
                  "the grid is too fine for this mesh: " + std::to_string(reach / grid.step) +

@@ -16,7 +16,8 @@ namespace {
 
 // The triangles of `mesh` as sorted, rotation-normalised position triples after the codec has
 // cleaned it (degenerate triangles and unreferenced vertices removed), quantized on `grid`.
-std::vector<std::array<float, 9>> expected_triangles(const Mesh& input, const QuantizationGrid& grid) {
+std::vector<std::array<float, 9>> expected_triangles(const Mesh& input,
+                                                     const QuantizationGrid& grid) {
   Mesh mesh = input;
   remove_degenerate_triangles(mesh);
   remove_unreferenced_vertices(mesh);
@@ -201,10 +202,11 @@ TEST(Codec, HeaderErrorsAreNamed) {
 
 TEST(Codec, RealMeshesRoundTrip) {
   OSTEON_REQUIRE_SHARED_DATA(data);
-  for (const char* file : {"MyoHub__myo_sim/meshes/arm_r_humerus.stl",   // non-manifold edges
-                           "aHer-dev__3DAnatomy/models/bones/FJ101_BP62633_FMA23725_Right_trapezoid.glb",
-                           "stity__spl-abdominal-atlas/Data/Model_299_Pelvis.vtk",
-                           "cearto__zen__MeshsegBenchmark/data/off/101.off"}) {
+  for (const char* file :
+       {"MyoHub__myo_sim/meshes/arm_r_humerus.stl",  // non-manifold edges
+        "aHer-dev__3DAnatomy/models/bones/FJ101_BP62633_FMA23725_Right_trapezoid.glb",
+        "stity__spl-abdominal-atlas/Data/Model_299_Pelvis.vtk",
+        "cearto__zen__MeshsegBenchmark/data/off/101.off"}) {
     SCOPED_TRACE(file);
     Result<Scene> scene = read_path(data + "/" + file);
     ASSERT_TRUE(scene.ok()) << scene.status().message();

@@ -57,32 +57,34 @@ int run_encode(const EncodeArgs& args) {
   EncodeReport report;
   auto start = std::chrono::steady_clock::now();
   Result<std::vector<uint8_t>> bytes = encode(mesh, options, &report);
-  double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                  .count();
+  double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (!bytes.ok()) return fail(args.input + ": " + bytes.status().message());
   Status written = write_file_atomic(args.output, bytes->data(), bytes->size());
   if (!written.ok()) return fail(written);
   if (args.json) {
-    nlohmann::json j = {{"input", args.input},
-                        {"output", args.output},
-                        {"parts", parts},
-                        {"vertices", report.vertices},
-                        {"triangles", report.triangles},
-                        {"degenerate_removed", report.degenerate_removed},
-                        {"unreferenced_removed", report.unreferenced_removed},
-                        {"bytes", report.bytes},
-                        {"connectivity_bytes", report.connectivity_bytes},
-                        {"geometry_bytes", report.geometry_bytes},
-                        {"connectivity_bits_per_vertex", report.connectivity_bits_per_vertex},
-                        {"geometry_bits_per_vertex", report.geometry_bits_per_vertex},
-                        {"bits_per_vertex", report.vertices ? 8.0 * report.bytes / report.vertices : 0.0},
-                        {"max_error", report.max_error},
-                        {"grid_step", report.grid_step},
-                        {"encode_ms", ms}};
+    nlohmann::json j = {
+        {"input", args.input},
+        {"output", args.output},
+        {"parts", parts},
+        {"vertices", report.vertices},
+        {"triangles", report.triangles},
+        {"degenerate_removed", report.degenerate_removed},
+        {"unreferenced_removed", report.unreferenced_removed},
+        {"bytes", report.bytes},
+        {"connectivity_bytes", report.connectivity_bytes},
+        {"geometry_bytes", report.geometry_bytes},
+        {"connectivity_bits_per_vertex", report.connectivity_bits_per_vertex},
+        {"geometry_bits_per_vertex", report.geometry_bits_per_vertex},
+        {"bits_per_vertex", report.vertices ? 8.0 * report.bytes / report.vertices : 0.0},
+        {"max_error", report.max_error},
+        {"grid_step", report.grid_step},
+        {"encode_ms", ms}};
     std::cout << j.dump(2) << "\n";
   } else {
     std::printf(
-        "%s: %zu vertices, %zu triangles -> %zu bytes (connectivity %.3f, geometry %.3f bits/vertex), "
+        "%s: %zu vertices, %zu triangles -> %zu bytes (connectivity %.3f, geometry %.3f "
+        "bits/vertex), "
         "grid step %.6g, max error %.6g, %.1f ms\n",
         args.output.c_str(), report.vertices, report.triangles, report.bytes,
         report.connectivity_bits_per_vertex, report.geometry_bits_per_vertex, report.grid_step,
@@ -97,15 +99,18 @@ int run_decode(const DecodeArgs& args) {
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
   auto start = std::chrono::steady_clock::now();
   Result<Mesh> mesh = decode(bytes.data(), bytes.size(), args.input);
-  double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-                  .count();
+  double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (!mesh.ok()) return fail(mesh.status());
   Status written = write_mesh(args.output, mesh.value());
   if (!written.ok()) return fail(written);
   if (args.json) {
-    nlohmann::json j = {{"input", args.input},          {"output", args.output},
-                        {"vertices", mesh->vertex_count()}, {"triangles", mesh->triangle_count()},
-                        {"bytes", bytes.size()},         {"decode_ms", ms}};
+    nlohmann::json j = {{"input", args.input},
+                        {"output", args.output},
+                        {"vertices", mesh->vertex_count()},
+                        {"triangles", mesh->triangle_count()},
+                        {"bytes", bytes.size()},
+                        {"decode_ms", ms}};
     std::cout << j.dump(2) << "\n";
   } else {
     std::printf("%s: %zu vertices, %zu triangles, decoded in %.1f ms\n", args.output.c_str(),

@@ -1,0 +1,117 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "codec_internal.hpp"
+#include "connectivity.hpp"
+#include "geometry.hpp"
+#include "osteon/codec.hpp"
+
+// The codec's encoder: cleans the mesh, quantizes it, codes connectivity then geometry in the
+// connectivity's vertex order, and writes the container (docs/FORMAT.md, "Mesh stream").
+
+namespace osteon {
+
+namespace {
+
+template <class T>
+void put_le(std::vector<uint8_t>* out, T value) {
+  uint8_t bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  if constexpr (std::endian::native == std::endian::big) std::reverse(bytes, bytes + sizeof(T));
+  out->insert(out->end(), bytes, bytes + sizeof(T));
+}
+
+Status invalid(const std::string& what) {
+  return error(ErrorCode::kInvalidArgument, "encode", what);
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& options,
+                                    EncodeReport* report) {
+  for (uint32_t index : input.indices) {
+    if (index >= input.positions.size()) {
+      return invalid("triangle index " + std::to_string(index) + " is out of range (" +
+                     std::to_string(input.positions.size()) + " vertices)");
+    }
+  }
+  if (input.indices.size() % 3 != 0) return invalid("the index count is not a multiple of 3");
+  for (const Vec3& p : input.positions) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      return invalid("the mesh has a NaN or infinite position");
+    }
+  }
+  if (input.triangle_count() > detail::kMaxTriangles) {
+    return invalid("more than 2^28 triangles in one mesh: split it into components first");
+  }
+  if (options.normals) {
+    return error(ErrorCode::kUnsupported, "encode", "transmitted normals are not implemented yet");
+  }
+
+  Mesh mesh;
+  mesh.positions = input.positions;
+  mesh.indices = input.indices;
+  EncodeReport r;
+  r.degenerate_removed = remove_degenerate_triangles(mesh);
+  r.unreferenced_removed = remove_unreferenced_vertices(mesh);
+  OSTEON_ASSIGN_OR_RETURN(QuantizationGrid grid, detail::choose_grid(mesh.positions, options));
+  detail::QuantizedPositions q = detail::quantize(mesh.positions, grid);
+
+  uint32_t vertex_count = static_cast<uint32_t>(mesh.positions.size());
+  OSTEON_ASSIGN_OR_RETURN(detail::ConnectivityEncoding connectivity,
+                          detail::encode_connectivity(mesh.indices, vertex_count));
+  detail::QuantizedPositions ordered;
+  ordered.xyz.resize(q.xyz.size());
+  for (uint32_t d = 0; d < vertex_count; ++d) {
+    uint32_t v = connectivity.vertex_order[d];
+    for (int k = 0; k < 3; ++k) ordered.xyz[3 * size_t{d} + k] = q.xyz[3 * size_t{v} + k];
+  }
+  std::vector<uint8_t> geometry;
+  detail::encode_geometry(connectivity.decoded_indices, ordered, &geometry);
+
+  std::vector<uint8_t> out;
+  out.reserve(detail::kStreamHeaderBytes + connectivity.bytes.size() + geometry.size() +
+              detail::kStreamChecksumBytes);
+  out.insert(out.end(), detail::kStreamMagic, detail::kStreamMagic + 4);
+  out.push_back(detail::kStreamVersion);
+  out.push_back(0);  // flags: bit 0 = normals section present
+  put_le<uint16_t>(&out, 0);
+  put_le<uint32_t>(&out, vertex_count);
+  put_le<uint32_t>(&out, static_cast<uint32_t>(mesh.triangle_count()));
+  put_le<double>(&out, grid.origin.x);
+  put_le<double>(&out, grid.origin.y);
+  put_le<double>(&out, grid.origin.z);
+  put_le<double>(&out, grid.step);
+  put_le<uint32_t>(&out, static_cast<uint32_t>(connectivity.bytes.size()));
+  put_le<uint32_t>(&out, static_cast<uint32_t>(geometry.size()));
+  put_le<uint32_t>(&out, 0);  // normals section length
+  out.insert(out.end(), connectivity.bytes.begin(), connectivity.bytes.end());
+  out.insert(out.end(), geometry.begin(), geometry.end());
+  put_le<uint32_t>(&out, detail::crc32(out.data(), out.size()));
+
+  if (report != nullptr) {
+    r.bytes = out.size();
+    r.connectivity_bytes = connectivity.bytes.size();
+    r.geometry_bytes = geometry.size();
+    r.vertices = vertex_count;
+    r.triangles = mesh.triangle_count();
+    r.grid = grid;
+    r.grid_step = grid.step;
+    if (vertex_count > 0) {
+      r.connectivity_bits_per_vertex = 8.0 * double(r.connectivity_bytes) / vertex_count;
+      r.geometry_bits_per_vertex = 8.0 * double(r.geometry_bytes) / vertex_count;
+    }
+    std::vector<Vec3> back = detail::dequantize(q, grid);
+    for (size_t i = 0; i < back.size(); ++i) {
+      r.max_error = std::max({r.max_error, std::fabs(double(back[i].x) - mesh.positions[i].x),
+                              std::fabs(double(back[i].y) - mesh.positions[i].y),
+                              std::fabs(double(back[i].z) - mesh.positions[i].z)});
+    }
+    *report = r;
+  }
+  return out;
+}
+
+}  // namespace osteon

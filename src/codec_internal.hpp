@@ -1,0 +1,38 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+// What the codec's container encoder (src/codec_encode.cpp) and decoder (src/codec_decode.cpp)
+// share: the header's constants and the checksum. docs/FORMAT.md specifies every byte.
+
+namespace osteon::detail {
+
+constexpr uint8_t kStreamMagic[4] = {'O', 'S', 'T', 'M'};
+constexpr uint8_t kStreamVersion = 1;
+constexpr size_t kStreamHeaderBytes = 4 + 1 + 1 + 2 + 4 + 4 + 4 * 8 + 3 * 4;  // 60
+constexpr size_t kStreamChecksumBytes = 4;
+/// A stream may describe at most this many triangles per byte of its own size: far above what
+/// any real mesh reaches (a few bits per triangle), and it bounds what hostile bytes can allocate.
+constexpr uint64_t kMaxTrianglesPerByte = 1024;
+constexpr uint32_t kMaxTriangles = uint32_t{1} << 28;
+
+/// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320).
+inline uint32_t crc32(const uint8_t* data, size_t size) {
+  static const std::array<uint32_t, 256> table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  uint32_t crc = 0xffffffffu;
+  for (size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xff] ^ (crc >> 8);
+  return crc ^ 0xffffffffu;
+}
+
+}  // namespace osteon::detail
