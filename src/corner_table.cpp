@@ -41,7 +41,8 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
     }
   }
   for (uint32_t v = 0; v < vertex_count; ++v) {
-    if (start[v + 1] - start[v] > 1) std::sort(edges.begin() + start[v], edges.begin() + start[v + 1]);
+    if (start[v + 1] - start[v] > 1)
+      std::sort(edges.begin() + start[v], edges.begin() + start[v + 1]);
   }
   // The run of edges from -> to, as [first, last).
   auto run = [&](uint32_t from, uint32_t to) {

@@ -70,8 +70,12 @@ class IndexVector {
   std::vector<T> data_;
 };
 
-inline constexpr FaceIndex face_of(CornerIndex c) { return FaceIndex(c.value / 3); }
-inline constexpr CornerIndex first_corner(FaceIndex f) { return CornerIndex(f.value * 3); }
+inline constexpr FaceIndex face_of(CornerIndex c) {
+  return FaceIndex(c.value / 3);
+}
+inline constexpr CornerIndex first_corner(FaceIndex f) {
+  return CornerIndex(f.value * 3);
+}
 /// The next corner of c's face (counter-clockwise).
 inline constexpr CornerIndex next(CornerIndex c) {
   return CornerIndex(c.value % 3 == 2 ? c.value - 2 : c.value + 1);
@@ -135,9 +139,7 @@ struct ClosedManifold {
   uint32_t dummy_faces = 0;
 
   bool is_dummy(VertexIndex v) const { return v.value >= first_dummy; }
-  bool is_copy(VertexIndex v) const {
-    return v.value >= input_vertices && v.value < first_dummy;
-  }
+  bool is_copy(VertexIndex v) const { return v.value >= input_vertices && v.value < first_dummy; }
 };
 
 /// Cuts a triangle list into a closed oriented manifold (Guéziec et al.'s cutting, then a dummy

@@ -30,11 +30,11 @@ namespace {
 constexpr uint32_t kNone = 0xFFFFFFFFu;
 
 struct Traversal {
-  std::vector<uint8_t> symbols;       ///< encoding order
-  std::vector<CornerIndex> tips;      ///< per symbol: the tip corner of its face
-  std::vector<CornerIndex> starts;    ///< per component: the start face's corner opposite the
-                                      ///< first traversed face
-  std::vector<SplitEvent> events;     ///< encoding-order symbol ids
+  std::vector<uint8_t> symbols;     ///< encoding order
+  std::vector<CornerIndex> tips;    ///< per symbol: the tip corner of its face
+  std::vector<CornerIndex> starts;  ///< per component: the start face's corner opposite the
+                                    ///< first traversed face
+  std::vector<SplitEvent> events;   ///< encoding-order symbol ids
 };
 
 // The Edgebreaker traversal (Rossignac et al. 2001), iterative. c is the tip corner of the face
@@ -129,7 +129,9 @@ Traversal traverse(const ClosedManifold& m) {
   return out;
 }
 
-CornerIndex rotate(CornerIndex c, uint32_t k) { return k == 0 ? c : k == 1 ? next(c) : prev(c); }
+CornerIndex rotate(CornerIndex c, uint32_t k) {
+  return k == 0 ? c : k == 1 ? next(c) : prev(c);
+}
 
 Status internal(const std::string& what) {
   return error(ErrorCode::kInvalidArgument, "connectivity encoder", "internal error: " + what);
@@ -139,9 +141,9 @@ Status internal(const std::string& what) {
 
 Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& indices,
                                                  uint32_t vertex_count) {
-  if (indices.size() % 3 != 0 || indices.size() / 3 > 0x3FFFFFFFu) {
+  if (indices.size() % 3 != 0 || indices.size() / 3 > kMaxConnectivityTriangles) {
     return error(ErrorCode::kInvalidArgument, "connectivity encoder",
-                 "the index count is not a multiple of 3 or exceeds 2^30 triangles");
+                 "the index count is not a multiple of 3 or exceeds 2^28 triangles");
   }
   {
     std::vector<uint8_t> used(vertex_count, 0);
@@ -178,7 +180,9 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   }
   std::vector<SplitEvent> events;
   events.reserve(tr.events.size());
-  for (const SplitEvent& e : tr.events) events.push_back({n - 1 - e.split, n - 1 - e.source, e.edge});
+  for (const SplitEvent& e : tr.events) {
+    events.push_back({n - 1 - e.split, n - 1 - e.source, e.edge});
+  }
   std::sort(events.begin(), events.end(),
             [](const SplitEvent& a, const SplitEvent& b) { return a.split < b.split; });
   for (size_t i = 1; i < events.size(); ++i) {
@@ -189,10 +193,12 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   SpiraleReversi core;
   core.begin(n, components, vertex_ids, events);
   std::vector<uint8_t> decoded_symbols(n), valences(n);
+  uint32_t valence = 0;
   for (uint32_t k = 0; k < n; ++k) {
     const uint32_t symbol = tr.symbols[n - 1 - k];
     decoded_symbols[k] = static_cast<uint8_t>(symbol);
-    valences[k] = static_cast<uint8_t>(std::min<uint32_t>(core.active_valence(), 255));
+    valences[k] = static_cast<uint8_t>(std::min<uint32_t>(valence, 255));
+    valence = core.next_valence(symbol);
     if (!core.step(symbol)) return internal(std::string("decoder rejects symbol: ") + core.what());
   }
   if (!core.close_components()) return internal(std::string("decoder: ") + core.what());
@@ -206,17 +212,17 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     const CornerIndex base = f < n ? tr.tips[n - 1 - f] : tr.starts[f - n];
     return rotate(base, dc % 3);
   };
-  std::vector<uint32_t> encoded_of_id(vertex_ids, kNone);        // decoder id -> encoder vertex
+  std::vector<uint32_t> encoded_of_id(vertex_ids, kNone);          // decoder id -> encoder vertex
   std::vector<uint32_t> id_of_encoded(table.vertex_count, kNone);  // encoder vertex -> decoder id
   std::vector<uint32_t> encoded_of_corner(corners);
   for (uint32_t dc = 0; dc < corners; ++dc) encoded_of_corner[dc] = encoded_corner(dc).value;
   for (uint32_t dc = 0; dc < corners; ++dc) {
     const CornerIndex ec(encoded_of_corner[dc]);
-    const CornerIndex dopp = core.opposite()[CornerIndex(dc)];
+    const CornerIndex dopp = core.opposite(CornerIndex(dc));
     if (!dopp.valid() || CornerIndex(encoded_of_corner[dopp.value]) != table.o(ec)) {
       return internal("the rebuilt corner table differs from the encoded one");
     }
-    const uint32_t id = core.corner_vertex()[CornerIndex(dc)].value;
+    const uint32_t id = core.vertex(CornerIndex(dc)).value;
     const uint32_t ev = table.v(ec).value;
     if (encoded_of_id[id] == kNone) encoded_of_id[id] = ev;
     if (id_of_encoded[ev] == kNone) id_of_encoded[ev] = id;
@@ -265,17 +271,20 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   }
   auto put_ids = [&](const std::vector<uint32_t>& ids) {
     put_varint(&bytes, ids.size());
-    for (size_t i = 0; i < ids.size(); ++i) put_varint(&bytes, i == 0 ? ids[i] : ids[i] - ids[i - 1] - 1);
+    for (size_t i = 0; i < ids.size(); ++i) {
+      put_varint(&bytes, i == 0 ? ids[i] : ids[i] - ids[i - 1] - 1);
+    }
   };
   put_ids(dummies);
   std::vector<uint32_t> copies;
   for (const auto& g : glue) copies.push_back(g.first);
   put_ids(copies);
   for (const auto& g : glue) put_varint(&bytes, g.second);
-  // The symbols under each context model; the smallest section wins.
+
+  // The symbols under each context model the encoder tries; the smallest section wins.
   std::vector<uint8_t> best, section;
   uint32_t best_model = 0;
-  for (uint32_t model = 0; model < kContextModelCount; ++model) {
+  for (uint32_t model = 0; model < kEncoderContextModels; ++model) {
     SymbolContext context(kContextModels[model]);
     SymbolEncoder coder(kSymbolCount, context.contexts());
     for (uint32_t k = 0; k < n; ++k) {

@@ -3,7 +3,10 @@
 
 #include <bit>
 #include <cstdint>
+#include <memory>
+#include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "byte_io.hpp"
@@ -20,6 +23,10 @@
 // events, interior start faces).
 
 namespace osteon::detail {
+
+/// At most 2^28 triangles: the closed mesh then has at most 2^30 faces (a dummy face per border
+/// edge) and at most 3 * 2^30 vertex ids, so every corner and vertex id fits in 32 bits.
+inline constexpr uint32_t kMaxConnectivityTriangles = 1u << 28;
 
 /// CLERS symbols, numbered by how often they occur on bone meshes.
 enum Symbol : uint8_t { kSymbolC = 0, kSymbolR = 1, kSymbolL = 2, kSymbolE = 3, kSymbolS = 4 };
@@ -62,6 +69,29 @@ inline bool read_varint(ByteReader& in, uint64_t* out) {
 
 // ---- the decoder core ------------------------------------------------------------------------
 
+/// A fixed-size array addressed by one index type, left uninitialized (T must be an
+/// implicit-lifetime type: trivially copyable and destructible). The decoder core writes every
+/// element before reading it, so tens of megabytes are not cleared for nothing.
+template <class I, class T>
+class ScratchArray {
+ public:
+  void allocate(size_t n) {
+    data_.reset(static_cast<T*>(::operator new[](n * sizeof(T))));
+    size_ = n;
+  }
+  T& operator[](I i) { return data_.get()[i.value]; }
+  const T& operator[](I i) const { return data_.get()[i.value]; }
+  const T* data() const { return data_.get(); }
+  size_t size() const { return size_; }
+
+ private:
+  struct Free {
+    void operator()(T* p) const { ::operator delete[](p); }
+  };
+  std::unique_ptr<T, Free> data_;
+  size_t size_ = 0;
+};
+
 /// Spirale Reversi: rebuilds the closed manifold corner table from the CLERS symbols in decoding
 /// order (the reverse of the encoder's traversal), one face per symbol, then one start face per
 /// component. Face k's corners are 3k (the tip: opposite the edge the next-decoded face, the
@@ -69,10 +99,12 @@ inline bool read_varint(ByteReader& in, uint64_t* out) {
 /// (opposite the left edge). Vertex ids are handed out as faces need them and are never reused:
 /// an S merges two ids into one and the other dies.
 ///
-/// Per vertex the core keeps the "left-most" corner (Draco's name): the corner of the vertex's
-/// open fan whose incoming edge V[p] -> V is a free (unglued) edge, so a C or a start face finds
-/// the edge to close in O(1), and the number of corners on the vertex, so an S relabels the
-/// smaller of the two fans it merges (O(n log n) for any input, O(n) in practice).
+/// Per vertex the core keeps, in one 16-byte record: the "left-most" corner (Draco's name), the
+/// corner of the vertex's open fan whose incoming edge V[p] -> V is a free (unglued) edge, so a C
+/// or a start face finds the edge to close in O(1); the vertex at the other end of that edge
+/// ("far"), so the context of the symbol after a C costs two loads, not three; the number of
+/// corners on the vertex, for the context and so that an S relabels the smaller of the two fans
+/// it merges (O(n log n) for any input, O(n) in practice); and the vertex's key.
 ///
 /// Hostile input: every step checks what it relies on (an active edge to attach to, free edges,
 /// distinct vertices, vertex ids within the declared count) and fails instead; arrays are sized
@@ -92,25 +124,42 @@ class SpiraleReversi {
   /// not close.
   bool close_components();
 
-  /// The partial valence (corners decoded so far) of the vertex the next face's C would close;
-  /// 0 when no active edge is open. For the symbol context.
-  uint32_t active_valence() const {
-    return stack_.empty() ? 0 : count_[vertex_[next(stack_.back())]];
+  /// The partial valence (corners decoded so far) of the vertex a C would close once step(symbol)
+  /// has run (V[c1] of the new face), computed from the state before it, without a branch on
+  /// `symbol`: the decoder reads the next symbol, whose context this is, before stepping, so a
+  /// mispredicted branch in step() does not hold up the entropy decoder. 0 when the step would
+  /// fail for want of an active edge. For the symbol context.
+  uint32_t next_valence(uint32_t symbol) const {
+    uint32_t candidate[kSymbolCount] = {0, 0, 1, 1, 0};  // C, R, L, E, S
+    if (!stack_.empty()) {
+      const VertexRecord& v = vertices_[vertex_[next(stack_.back())]];
+      candidate[kSymbolC] = vertices_[v.far].count + 1;  // C: the vertex across v's free edge
+      candidate[kSymbolR] = v.count + 1;                 // R: V[n(a)] stays active
+      CornerIndex below = stack_.size() > 1 ? stack_[stack_.size() - 2] : kNoCorner;
+      if (next_event_ < events_.size() && events_[next_event_].split == faces_) {
+        below = CornerIndex(3 * events_[next_event_].source + 1 + events_[next_event_].edge);
+      }
+      if (below.valid()) candidate[kSymbolS] = vertices_[vertex_[next(below)]].count + 1;
+    }
+    // Selects, not an indexed load: the result is on the decoder's critical path.
+    const uint32_t s = symbol;
+    return s == kSymbolC   ? candidate[kSymbolC]
+           : s == kSymbolR ? candidate[kSymbolR]
+           : s == kSymbolS ? candidate[kSymbolS]
+                           : 1;
   }
-  bool stack_empty() const { return stack_.empty(); }
-  size_t stack_size() const { return stack_.size(); }
-  /// The corner opposite the edge the next face attaches to (kNoCorner when none is open).
-  CornerIndex active_corner() const { return stack_.empty() ? kNoCorner : stack_.back(); }
   /// Corners decoded so far on vertex v (0 once v has been merged into another id).
-  uint32_t valence(VertexIndex v) const { return count_[v]; }
+  uint32_t valence(VertexIndex v) const { return vertices_[v].count; }
   /// The smallest id merged into v: vertices numbered by key are numbered by the first face, in
   /// decoding order, that uses them.
-  uint32_t key(VertexIndex v) const { return key_[v]; }
+  uint32_t key(VertexIndex v) const { return vertices_[v].key; }
 
   uint32_t faces() const { return faces_; }
   uint32_t vertex_ids() const { return vertex_ids_; }
-  const IndexVector<CornerIndex, VertexIndex>& corner_vertex() const { return vertex_; }
-  const IndexVector<CornerIndex, CornerIndex>& opposite() const { return opposite_; }
+  /// V and O of the corners of faces 0..faces()-1.
+  VertexIndex vertex(CornerIndex c) const { return vertex_[c]; }
+  CornerIndex opposite(CornerIndex c) const { return opposite_[c]; }
+  const VertexIndex* corner_vertex() const { return vertex_.data(); }
   const char* what() const { return what_; }
 
  private:
@@ -122,24 +171,33 @@ class SpiraleReversi {
     opposite_[a] = b;
     opposite_[b] = a;
   }
-  VertexIndex new_vertex(CornerIndex c) {
+  /// A new vertex id whose single corner is c (its far vertex is set by set_left once the face's
+  /// vertices are known).
+  VertexIndex new_vertex() {
     VertexIndex v(vertex_ids_++);
-    left_[v] = c;
-    count_[v] = 1;
-    key_[v] = v.value;
+    vertices_[v] = {kNoCorner, kNoVertex, 1, v.value};
     return v;
+  }
+  /// Makes c the left-most corner of V[c]; V[p(c)] must be set.
+  void set_left(CornerIndex c) {
+    VertexRecord& r = vertices_[vertex_[c]];
+    r.left = c;
+    r.far = vertex_[prev(c)];
   }
   bool merge(CornerIndex a, CornerIndex b, VertexIndex* merged);
 
-  IndexVector<CornerIndex, VertexIndex> vertex_;
-  IndexVector<CornerIndex, CornerIndex> opposite_;
-  IndexVector<VertexIndex, CornerIndex> left_;
-  IndexVector<VertexIndex, uint32_t> count_;
-  IndexVector<VertexIndex, uint32_t> key_;
+  struct VertexRecord {
+    CornerIndex left;  ///< left-most corner
+    VertexIndex far;   ///< V[p(left)]
+    uint32_t count;    ///< corners on the vertex; 0 once merged into another id
+    uint32_t key;      ///< smallest id merged into it
+  };
+  ScratchArray<CornerIndex, VertexIndex> vertex_;
+  ScratchArray<CornerIndex, CornerIndex> opposite_;
+  ScratchArray<VertexIndex, VertexRecord> vertices_;  // one spare record past the last id
   std::vector<CornerIndex> stack_;
   std::vector<SplitEvent> events_;
   size_t next_event_ = 0;
-  uint32_t symbols_ = 0;
   uint32_t components_ = 0;
   uint32_t faces_ = 0;
   uint32_t vertex_ids_ = 0;
@@ -150,10 +208,11 @@ class SpiraleReversi {
 /// Undoes the encoder's cutting on a rebuilt closed mesh: drops the faces on the dummy vertices,
 /// maps each glued copy onto its original, and numbers the remaining vertices in the order of
 /// their keys (the first face in decoding order that uses them). `glue` holds (copy, original)
-/// pairs of vertex ids. Writes exactly `triangle_count`
-/// triangles over exactly `vertex_count` vertices to `indices`, and, when `final_of_id` is not
-/// null, the final vertex of each vertex id (kNoVertex for unused ids). False (with *what) when
-/// the counts disagree, an id is out of range or a triangle would repeat a vertex.
+/// pairs of vertex ids. Writes exactly `triangle_count` triangles over exactly `vertex_count`
+/// vertices to `indices` (faces in decoding order, corners in face order), and, when
+/// `final_of_id` is not null, the final vertex of each vertex id (kNoVertex for dead ids and
+/// dummies). False (with *what) when the counts disagree, an id is out of range or not a vertex,
+/// a triangle would repeat a vertex or a vertex would be left unused. O(faces + vertex ids).
 bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
            const std::vector<std::pair<uint32_t, uint32_t>>& glue, uint32_t triangle_count,
            uint32_t vertex_count, std::vector<uint32_t>* indices,
@@ -180,6 +239,10 @@ inline constexpr ContextModel kContextModels[] = {
 };
 inline constexpr uint32_t kContextModelCount =
     static_cast<uint32_t>(sizeof(kContextModels) / sizeof(kContextModels[0]));
+/// The models the encoder tries: the first four (at most 200 contexts). The entropy decoder keeps
+/// a 4096-slot table per context, so models 4 and 5 (hundreds of contexts used on a large mesh)
+/// win 1-2% of size but decode up to 1.6x slower from cache misses; the decoder reads them all.
+inline constexpr uint32_t kEncoderContextModels = 4;
 
 /// Tracks the features and turns them into a context id for one model.
 class SymbolContext {
@@ -205,18 +268,18 @@ class SymbolContext {
   }
   uint32_t contexts() const { return contexts_; }
 
-  /// The context of the next symbol; `va` = SpiraleReversi::active_valence() before it.
-  uint32_t get(uint32_t va) const {
-    // len bucket: 0, 1, 2, 3, 4-7, 8-15, 16-31, 32+ (len saturates at 32).
-    const uint32_t len8 = len_ < 4 ? len_ : static_cast<uint32_t>(std::bit_width(len_)) + 1;
-    return w_p1_ * p1_ + w_p2_ * p2_ + w_p3_ * p3_ + w_va_ * (va < 7 ? va : 7) +
-           w_len_ * len_map_[len8];
-  }
+  /// The context of the next symbol; `va` = SpiraleReversi::next_valence() of the one before it
+  /// (0 for the first symbol). The history part is summed in update(), off the decoder's
+  /// critical path, which runs through va.
+  uint32_t get(uint32_t va) const { return history_ + w_va_ * (va < 7 ? va : 7); }
   void update(uint32_t symbol) {
     p3_ = p2_;
     p2_ = p1_;
     p1_ = symbol;
     len_ = (symbol == kSymbolE || symbol == kSymbolS) ? 0 : (len_ < 32 ? len_ + 1 : 32);
+    // len bucket: 0, 1, 2, 3, 4-7, 8-15, 16-31, 32+ (len saturates at 32).
+    const uint32_t len8 = len_ < 4 ? len_ : static_cast<uint32_t>(std::bit_width(len_)) + 1;
+    history_ = w_p1_ * p1_ + w_p2_ * p2_ + w_p3_ * p3_ + w_len_ * len_map_[len8];
   }
 
  private:
@@ -224,6 +287,7 @@ class SymbolContext {
   uint32_t contexts_ = 1;
   uint8_t len_map_[8] = {};
   uint32_t p1_ = 0, p2_ = 0, p3_ = 0, len_ = 0;
+  uint32_t history_ = 0;  // the context without va (all features 0 before the first symbol)
 };
 
 }  // namespace osteon::detail
