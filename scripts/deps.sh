@@ -6,8 +6,13 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libtinygltf-dev libtbb-dev libeigen3-dev libcpp-httplib-dev
   libassimp-dev
+  emscripten
 )
 missing=()
+# Node.js and npm for the web decoder's tests: use the machine's own when it has one (e.g.
+# NodeSource's Node 20, which bundles npm); otherwise Debian's packages.
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done

@@ -12,6 +12,10 @@ cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMP
 cmake --build build/release -j"$jobs"
 ctest --test-dir build/release -j"$jobs" --output-on-failure
 
+echo "== WebAssembly decoder (emscripten) against the native decoder"
+(cd web && npm ci --no-audit --no-fund && JOBS="$jobs" OSTEON_WERROR=1 npm run build:decoder \
+  && OSTEON_CLI="$PWD/../build/release/osteon" npm test)
+
 echo "== clang ASan+UBSan, -Werror"
 cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DOSTEON_WERROR=ON -DOSTEON_BUILD_TESTS=ON -DOSTEON_SANITIZE=address,undefined >/dev/null

@@ -2,7 +2,6 @@
 #pragma once
 
 #include <bit>
-#include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -152,29 +151,6 @@ class TextReader {
   size_t offset_ = 0;
   size_t line_ = 1;
 };
-
-/// Parses a whole token as a float. Accepts what strtof accepts for finite numbers plus a leading
-/// '+'; "nan"/"inf" parse (so the caller can report them as non-finite rather than as garbage).
-inline bool parse_float(std::string_view token, float* out) {
-  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
-  if (token.empty()) return false;
-  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), *out);
-  if (ec == std::errc::result_out_of_range) {
-    // from_chars leaves *out untouched on overflow/underflow: decide by the sign and magnitude.
-    double d = std::strtod(std::string(token).c_str(), nullptr);
-    *out = static_cast<float>(d);
-    return true;
-  }
-  return ec == std::errc() && ptr == token.data() + token.size();
-}
-
-/// Parses a whole token as a signed 64-bit integer (a leading '+' is allowed).
-inline bool parse_int(std::string_view token, int64_t* out) {
-  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
-  if (token.empty()) return false;
-  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), *out);
-  return ec == std::errc() && ptr == token.data() + token.size();
-}
 
 /// A token from a file, fit for an error message: quoted, at most 32 characters, unprintable
 /// bytes replaced by '?'.

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <string_view>
 
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
@@ -50,6 +52,29 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
 
 /// Guesses the format from the first bytes (magic numbers and keywords); kUnknown if none fits.
 Format sniff_format(const uint8_t* data, size_t size);
+
+/// Parses a whole token as a float. Accepts what strtof accepts for finite numbers plus a leading
+/// '+'; "nan"/"inf" parse (so the caller can report them as non-finite rather than as garbage).
+inline bool parse_float(std::string_view token, float* out) {
+  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), *out);
+  if (ec == std::errc::result_out_of_range) {
+    // from_chars leaves *out untouched on overflow/underflow: decide by the sign and magnitude.
+    double d = std::strtod(std::string(token).c_str(), nullptr);
+    *out = static_cast<float>(d);
+    return true;
+  }
+  return ec == std::errc() && ptr == token.data() + token.size();
+}
+
+/// Parses a whole token as a signed 64-bit integer (a leading '+' is allowed).
+inline bool parse_int(std::string_view token, int64_t* out) {
+  if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), *out);
+  return ec == std::errc() && ptr == token.data() + token.size();
+}
 
 inline bool is_finite(const Vec3& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
