@@ -6,6 +6,7 @@
 #include "codec_internal.hpp"
 #include "connectivity.hpp"
 #include "geometry.hpp"
+#include "normals.hpp"
 #include "osteon/codec.hpp"
 
 // The codec's encoder: cleans the mesh, quantizes it, codes connectivity then geometry in the
@@ -46,13 +47,22 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   if (input.triangle_count() > detail::kMaxTriangles) {
     return invalid("more than 2^28 triangles in one mesh: split it into components first");
   }
-  if (options.normals) {
-    return error(ErrorCode::kUnsupported, "encode", "transmitted normals are not implemented yet");
+  if (options.normals && (options.normal_bits < 8 || options.normal_bits > 16)) {
+    return invalid("normal bits must be between 8 and 16, not " +
+                   std::to_string(options.normal_bits));
   }
 
   Mesh mesh;
   mesh.positions = input.positions;
   mesh.indices = input.indices;
+  if (options.normals && input.normals.size() == input.positions.size()) {
+    for (const Vec3& n : input.normals) {
+      if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
+        return invalid("the mesh has a NaN or infinite normal");
+      }
+    }
+    mesh.normals = input.normals;
+  }
   EncodeReport r;
   r.degenerate_removed = remove_degenerate_triangles(mesh);
   r.unreferenced_removed = remove_unreferenced_vertices(mesh);
@@ -70,13 +80,23 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   }
   std::vector<uint8_t> geometry;
   detail::encode_geometry(connectivity.decoded_indices, ordered, &geometry);
+  std::vector<uint8_t> normals;
+  if (options.normals) {
+    if (mesh.normals.empty()) mesh.normals = compute_vertex_normals(mesh);
+    std::vector<Vec3> ordered_normals(vertex_count);
+    for (uint32_t d = 0; d < vertex_count; ++d) {
+      ordered_normals[d] = mesh.normals[connectivity.vertex_order[d]];
+    }
+    detail::encode_normals(connectivity.decoded_indices, ordered, ordered_normals,
+                           options.normal_bits, &normals);
+  }
 
   std::vector<uint8_t> out;
   out.reserve(detail::kStreamHeaderBytes + connectivity.bytes.size() + geometry.size() +
               detail::kStreamChecksumBytes);
   out.insert(out.end(), detail::kStreamMagic, detail::kStreamMagic + 4);
   out.push_back(detail::kStreamVersion);
-  out.push_back(0);  // flags: bit 0 = normals section present
+  out.push_back(normals.empty() ? 0 : 1);  // flags: bit 0 = normals section present
   put_le<uint16_t>(&out, 0);
   put_le<uint32_t>(&out, vertex_count);
   put_le<uint32_t>(&out, static_cast<uint32_t>(mesh.triangle_count()));
@@ -86,15 +106,17 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   put_le<double>(&out, grid.step);
   put_le<uint32_t>(&out, static_cast<uint32_t>(connectivity.bytes.size()));
   put_le<uint32_t>(&out, static_cast<uint32_t>(geometry.size()));
-  put_le<uint32_t>(&out, 0);  // normals section length
+  put_le<uint32_t>(&out, static_cast<uint32_t>(normals.size()));
   out.insert(out.end(), connectivity.bytes.begin(), connectivity.bytes.end());
   out.insert(out.end(), geometry.begin(), geometry.end());
+  out.insert(out.end(), normals.begin(), normals.end());
   put_le<uint32_t>(&out, detail::crc32(out.data(), out.size()));
 
   if (report != nullptr) {
     r.bytes = out.size();
     r.connectivity_bytes = connectivity.bytes.size();
     r.geometry_bytes = geometry.size();
+    r.normal_bytes = normals.size();
     r.vertices = vertex_count;
     r.triangles = mesh.triangle_count();
     r.grid = grid;

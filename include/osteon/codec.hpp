@@ -31,8 +31,12 @@ struct EncodeOptions {
   double precision = 0;
   /// When set (step > 0), use this grid instead of one derived from the mesh (shared grids).
   QuantizationGrid grid;
-  /// Transmit per-vertex normals (octahedral, predicted); otherwise the decoder computes them.
+  /// Transmit per-vertex normals (octahedral, predicted from the decoded surface): the mesh's own
+  /// normals when it has them, else its smooth normals before quantization. Otherwise the decoder
+  /// computes smooth normals from the decoded positions.
   bool normals = false;
+  /// Bits per octahedral component of transmitted normals, 8..16 (10: within about 0.1 degree).
+  int normal_bits = 10;
 };
 
 /// What encode measured; every field is filled on success.

@@ -24,6 +24,8 @@ struct EncodeArgs {
   std::string output;
   int bits = 14;
   double precision = 0;
+  bool normals = false;
+  int normal_bits = 10;
   bool json = false;
 };
 
@@ -54,6 +56,8 @@ int run_encode(const EncodeArgs& args) {
   EncodeOptions options;
   options.bits = args.bits;
   options.precision = args.precision;
+  options.normals = args.normals;
+  options.normal_bits = args.normal_bits;
   EncodeReport report;
   auto start = std::chrono::steady_clock::now();
   Result<std::vector<uint8_t>> bytes = encode(mesh, options, &report);
@@ -132,6 +136,10 @@ void register_encode(CLI::App& app, std::function<int()>* run) {
                   "Largest position error, in mesh units (e.g. 0.05 for 0.05 mm)")
       ->check(CLI::PositiveNumber)
       ->excludes(bits);
+  cmd->add_flag("--normals", args->normals,
+                "Transmit normals (the mesh's own, else its smooth normals), octahedral");
+  cmd->add_option("--normal-bits", args->normal_bits, "Bits per octahedral component, 8..16")
+      ->check(CLI::Range(8, 16));
   cmd->add_flag("--json", args->json, "Print a JSON report");
   cmd->callback([args, run] { *run = [args] { return run_encode(*args); }; });
 }
