@@ -4,9 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh
-cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DOSTEON_BUILD_TESTS=OFF >/dev/null
-cmake --build build/release -j"$(nproc)" --target osteon_cli
-osteon=build/release/osteon
+cmake -S . -B build/demo -G Ninja -DCMAKE_BUILD_TYPE=Release -DOSTEON_BUILD_TESTS=OFF >/dev/null
+cmake --build build/demo -j"$(nproc)" --target osteon_cli
+osteon=build/demo/osteon
 skeleton=../shared/data/aHer-dev__3DAnatomy/models/bones
 if [ ! -d "$skeleton" ]; then
   echo "osteon: ../shared/data is absent: using a generated phantom skeleton instead"

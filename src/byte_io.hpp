@@ -99,9 +99,9 @@ class TextReader {
 
   /// Skips spaces, tabs and '\r', but not newlines.
   void skip_blanks() {
-    while (offset_ < size_ && (data_[offset_] == ' ' || data_[offset_] == '\t' ||
-                               data_[offset_] == '\r' || data_[offset_] == '\f' ||
-                               data_[offset_] == '\v'))
+    while (offset_ < size_ &&
+           (data_[offset_] == ' ' || data_[offset_] == '\t' || data_[offset_] == '\r' ||
+            data_[offset_] == '\f' || data_[offset_] == '\v'))
       ++offset_;
   }
   /// Skips all whitespace including newlines.
@@ -165,6 +165,8 @@ inline std::string quote_token(std::string_view token) {
 }
 
 /// "byte 84" for messages.
-inline std::string at_byte(size_t offset) { return "byte " + std::to_string(offset); }
+inline std::string at_byte(size_t offset) {
+  return "byte " + std::to_string(offset);
+}
 
 }  // namespace osteon

@@ -5,7 +5,9 @@
 #include "byte_io.hpp"
 #include "codec_internal.hpp"
 #include "connectivity.hpp"
+#include "entropy.hpp"
 #include "geometry.hpp"
+#include "normals.hpp"
 #include "osteon/codec.hpp"
 
 // The codec's decoder: checks the container (magic, version, checksum, counts) before anything is
@@ -30,8 +32,9 @@ std::vector<Vec3> compute_vertex_normals(const Mesh& mesh) {
     }
   }
   for (Vec3& n : normals) {
-    float length = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
-    if (length > 0) n = {n.x / length, n.y / length, n.z / length};
+    const float length = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    const float scale = length > 0 ? 1 / length : 0;  // one division, not three
+    n = {n.x * scale, n.y * scale, n.z * scale};
   }
   return normals;
 }
@@ -39,9 +42,8 @@ std::vector<Vec3> compute_vertex_normals(const Mesh& mesh) {
 Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source) {
   if (size < detail::kStreamHeaderBytes + detail::kStreamChecksumBytes) {
     return error(ErrorCode::kInvalidData, source,
-                 "too short for an osteon stream (" + std::to_string(size) + " bytes, at least " +
-                     std::to_string(detail::kStreamHeaderBytes + detail::kStreamChecksumBytes) +
-                     ")",
+                 detail::message("too short for an osteon stream (% bytes, at least %)",
+                                 {size, detail::kStreamHeaderBytes + detail::kStreamChecksumBytes}),
                  at_byte(size));
   }
   if (std::memcmp(data, detail::kStreamMagic, 4) != 0) {
@@ -49,8 +51,8 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   }
   if (data[4] != detail::kStreamVersion) {
     return error(ErrorCode::kUnsupported, source,
-                 "stream version " + std::to_string(data[4]) + " (this decoder reads version " +
-                     std::to_string(detail::kStreamVersion) + ")",
+                 detail::message("stream version % (this decoder reads version %)",
+                                 {data[4], detail::kStreamVersion}),
                  "byte 4");
   }
   uint32_t stored_crc = ByteReader::load<uint32_t>(data + size - 4, std::endian::little);
@@ -72,16 +74,20 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   for (double& o : origin) in.read_le(&o);
   in.read_le(&step);
   for (uint32_t& l : lengths) in.read_le(&l);
-  if (flags != 0 || reserved != 0) {
+  const bool has_normals = (flags & 1) != 0;
+  if ((flags & ~1) != 0 || reserved != 0) {
     return error(ErrorCode::kUnsupported, source, "unknown flags in the header", "byte 5");
+  }
+  if (has_normals != (lengths[2] != 0)) {
+    return error(ErrorCode::kInvalidData, source,
+                 "the normals flag and the normals section's length disagree", "byte 56");
   }
   if (triangle_count > detail::kMaxTriangles ||
       uint64_t{triangle_count} > detail::kMaxTrianglesPerByte * uint64_t{size} ||
       uint64_t{vertex_count} > 3 * uint64_t{triangle_count}) {
     return error(ErrorCode::kInvalidData, source,
-                 "implausible counts: " + std::to_string(vertex_count) + " vertices, " +
-                     std::to_string(triangle_count) + " triangles in " + std::to_string(size) +
-                     " bytes",
+                 detail::message("implausible counts: % vertices, % triangles in % bytes",
+                                 {vertex_count, triangle_count, size}),
                  "byte 8");
   }
   if (!(step > 0) || !std::isfinite(step) || !std::isfinite(origin[0]) ||
@@ -95,11 +101,14 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   size_t base = in.offset();
   ByteReader connectivity_in(data + base, lengths[0]);
   OSTEON_ASSIGN_OR_RETURN(
-      std::vector<uint32_t> indices,
+      detail::DecodedConnectivity connectivity,
       detail::decode_connectivity(connectivity_in, vertex_count, triangle_count, source));
   ByteReader geometry_in(data + base + lengths[0], lengths[1]);
-  OSTEON_ASSIGN_OR_RETURN(detail::QuantizedPositions q,
-                          detail::decode_geometry(geometry_in, indices, vertex_count, source));
+  OSTEON_ASSIGN_OR_RETURN(
+      detail::QuantizedPositions q,
+      detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, source));
+  connectivity.newest = detail::NewestTriangles();  // free it before the normals' arrays
+  std::vector<uint32_t>& indices = connectivity.indices;
   QuantizationGrid grid;
   grid.origin = {float(origin[0]), float(origin[1]), float(origin[2])};
   grid.step = step;
@@ -107,7 +116,13 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   mesh.positions = detail::dequantize(q, grid);
   mesh.indices = std::move(indices);
   mesh.stored_vertices = vertex_count;
-  mesh.normals = compute_vertex_normals(mesh);
+  if (has_normals) {
+    ByteReader normals_in(data + base + lengths[0] + lengths[1], lengths[2]);
+    OSTEON_ASSIGN_OR_RETURN(mesh.normals,
+                            detail::decode_normals(normals_in, mesh.indices, q, source));
+  } else {
+    mesh.normals = compute_vertex_normals(mesh);
+  }
   return mesh;
 }
 

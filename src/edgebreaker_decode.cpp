@@ -28,8 +28,9 @@
 
 namespace osteon::detail {
 
-void SpiraleReversi::begin(uint32_t symbols, uint32_t components, uint32_t vertex_ids,
-                           std::vector<SplitEvent> events) {
+OSTEON_COLD_FUNCTION void SpiraleReversi::begin(uint32_t symbols, uint32_t components,
+                                                uint32_t vertex_ids,
+                                                std::vector<SplitEvent> events) {
   const size_t corners = 3 * (static_cast<size_t>(symbols) + components);
   // Not cleared: a face writes V and O of its three corners, a vertex id its record, before
   // anything reads them.
@@ -39,6 +40,7 @@ void SpiraleReversi::begin(uint32_t symbols, uint32_t components, uint32_t verte
   stack_.clear();
   stack_.reserve(64);
   events_ = std::move(events);
+  events_.push_back({0xFFFFFFFFu, 0, 0});  // the sentinel: no face is its split
   next_event_ = 0;
   components_ = components;
   faces_ = 0;
@@ -103,14 +105,21 @@ bool SpiraleReversi::step(uint32_t symbol) {
     const bool is_c = symbol == kSymbolC;
     const CornerIndex a = stack_.back();
     const VertexIndex v = vertex_[next(a)], w = vertex_[prev(a)];
-    const CornerIndex q = vertices_[v].left;
+    const VertexRecord& rv = vertices_[v];
+    const CornerIndex q = rv.left;
     const CornerIndex b = next(q);
-    const VertexIndex x = vertex_[prev(q)];
+    // V[p(q)], from v's record rather than from q's face: that face is usually a ring of the
+    // surface back, and the next step's context waits on x.
+    const VertexIndex x = rv.far;
     const VertexIndex n(vertex_ids_);  // R's new vertex; a spare record when all ids are used
-    const bool bad =
-        opposite_[a].valid() || (is_c ? (opposite_[b].valid() || a == b || x == w || x == v)
-                                      : vertex_ids_ == max_vertex_ids_);
-    if (bad)
+    // Bitwise, not short-circuit: every operand is at hand, and a branch per operand would be
+    // a branch on the symbol.
+    const unsigned c_bad =
+        unsigned{opposite_[b].valid()} | unsigned{a == b} | unsigned{x == w} | unsigned{x == v};
+    const unsigned r_bad = unsigned{vertex_ids_ == max_vertex_ids_};
+    const bool bad = (unsigned{opposite_[a].valid()} | (unsigned{is_c} & c_bad) |
+                      (unsigned{!is_c} & r_bad)) != 0;
+    if (bad) [[unlikely]]
       return fail(is_c ? "C glues an edge that is not free, or closes too small a fan"
                        : "R glues an edge that is not free, or makes too many vertices");
     vertex_[c0] = is_c ? v : w;
@@ -195,7 +204,7 @@ bool SpiraleReversi::step(uint32_t symbol) {
       const CornerIndex b = stack_.back();
       stack_.pop_back();
       CornerIndex a;
-      if (next_event_ < events_.size() && events_[next_event_].split == faces_) {
+      if (events_[next_event_].split == faces_) {
         const SplitEvent& e = events_[next_event_++];
         a = CornerIndex(3 * e.source + 1 + e.edge);
         stack_.push_back(a);
@@ -229,8 +238,10 @@ bool SpiraleReversi::step(uint32_t symbol) {
   return true;
 }
 
-bool SpiraleReversi::close_components() {
-  if (next_event_ != events_.size()) return fail("a split event names a face that is not an S");
+OSTEON_COLD_FUNCTION bool SpiraleReversi::close_components() {
+  if (next_event_ + 1 != events_.size()) {
+    return fail("a split event names a face that is not an S");
+  }
   if (stack_.size() != components_) return fail("the traversal does not end in its components");
   // Components were pushed last-encoded first: pop the first-encoded one first.
   while (!stack_.empty()) {
@@ -272,10 +283,10 @@ bool SpiraleReversi::close_components() {
   return true;
 }
 
-bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
-           const std::vector<std::pair<uint32_t, uint32_t>>& glue, uint32_t triangle_count,
-           uint32_t vertex_count, std::vector<uint32_t>* indices,
-           std::vector<VertexIndex>* final_of_id, const char** what) {
+OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
+                           const std::vector<std::pair<uint32_t, uint32_t>>& glue,
+                           uint32_t triangle_count, uint32_t vertex_count, DecodedConnectivity* out,
+                           std::vector<VertexIndex>* final_of_id, const char** what) {
   auto fail = [&](const char* message) {
     *what = message;
     return false;
@@ -317,15 +328,25 @@ bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
   if (next_final != vertex_count) return fail("fewer vertices than declared");
   for (const auto& [copy, original] : glue) final_id[copy] = final_id[original];
 
-  // Faces in decoding order, dummy faces dropped. Every numbered vertex has corners, so only
-  // where dummy faces are dropped can one end up unused (in a corrupt stream): check it there.
+  // Faces in decoding order, dummy faces dropped, with each face's newest vertex counted (shifted
+  // by two for the filling below) and the neighbour of its middle one noted. Every numbered
+  // vertex has corners, so only where dummy faces are dropped can one end up unused (in a
+  // corrupt stream): check it there.
   const size_t wanted = 3 * static_cast<size_t>(triangle_count);
-  indices->resize(wanted);
-  uint32_t* out = indices->data();
+  out->indices.resize(wanted);
+  uint32_t* indices = out->indices.data();
+  NewestTriangles& newest = out->newest;
+  newest.first.assign(size_t{vertex_count} + 2, 0);
+  newest.neighbour.assign(vertex_count, kNoVertexId);
+  uint32_t* first = newest.first.data();
+  uint32_t* neighbour = newest.neighbour.data();
   size_t written = 0;
-  const bool check_used = !dummies.empty();
-  std::vector<uint8_t> used(check_used ? vertex_count : 0, 0);
+  const bool has_dummies = !dummies.empty();
+  std::vector<uint8_t> used(has_dummies ? vertex_count : 0, 0);
+  // Where each decoded face went (kFree for a dummy face), when there are dummy faces.
+  std::vector<uint32_t> final_face(has_dummies ? core.faces() : 0, kFree);
   const VertexIndex* corner_vertex = core.corner_vertex();
+  const CornerIndex* opposite = core.corner_opposite();
   const uint32_t faces = core.faces();
   for (uint32_t f = 0; f < faces; ++f) {
     const uint32_t a = final_id[corner_vertex[3 * f].value];
@@ -335,18 +356,61 @@ bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
       if (a == kDummy || b == kDummy || c == kDummy) continue;
       return fail("a face uses a vertex that was merged away");
     }
-    if (a == b || b == c || a == c) return fail("a decoded triangle repeats a vertex");
+    if ((a == b) | (b == c) | (a == c)) return fail("a decoded triangle repeats a vertex");
     if (written == wanted) return fail("more triangles than declared");
-    out[written] = a;
-    out[written + 1] = b;
-    out[written + 2] = c;
+    indices[written] = a;
+    indices[written + 1] = b;
+    indices[written + 2] = c;
+    const uint32_t hi = std::max({a, b, c}), lo = std::min({a, b, c});
+    ++first[size_t{hi} + 2];
+    neighbour[a ^ b ^ c ^ hi ^ lo] = lo;  // the middle one
+    if (has_dummies) {
+      final_face[f] = static_cast<uint32_t>(written / 3);
+      used[a] = used[b] = used[c] = 1;
+    }
     written += 3;
-    if (check_used) used[a] = used[b] = used[c] = 1;
   }
   if (written != wanted) return fail("fewer triangles than declared");
   if (std::find(used.begin(), used.end(), 0) != used.end()) {
     return fail("a vertex is used by dummy faces only");
   }
+
+  // File every triangle under its newest vertex; first[v + 1] runs from v's start to its end
+  // (and is then v + 1's start). Across the newest corner's edge: the vertex of the opposite
+  // corner, read from the triangles just written. Every corner of a closed mesh is glued (a
+  // corrupt stream may leave one free); across a dummy face's edge is nothing. Without dummy
+  // faces, decoded faces are the output's.
+  for (uint32_t v = 2; v < vertex_count + 2; ++v) first[v] += first[v - 1];
+  newest.entries.resize(triangle_count);
+  NewestTriangle* entries = newest.entries.data();
+  const uint32_t corners = 3 * faces;
+  constexpr uint32_t kAhead = 16;  // faces: the opposite face is often a ring back, a cache miss
+  for (uint32_t f = 0; f < faces; ++f) {
+#if defined(__GNUC__)
+    if (f + kAhead < faces && !has_dummies) {
+      for (uint32_t k = 0; k < 3; ++k) {
+        const uint32_t ahead = opposite[3 * (f + kAhead) + k].value;
+        if (ahead < corners) __builtin_prefetch(indices + ahead);
+      }
+    }
+#endif
+    const uint32_t t = has_dummies ? final_face[f] : f;
+    if (t == kFree) continue;
+    const uint32_t* tri = indices + 3 * size_t{t};
+    const uint32_t a = tri[0], b = tri[1], c = tri[2];
+    // The newest corner k, and the two after it (without branches: k is random).
+    const uint32_t k = (b > a && b > c) ? 1 : (c > a && c > b) ? 2 : 0;
+    const uint32_t m = tri[k];
+    const uint32_t n = tri[k == 2 ? 0 : k + 1], p = tri[k == 0 ? 2 : k - 1];
+    const uint32_t across = opposite[3 * f + k].value;
+    uint32_t o = kNoVertexId;
+    if (across < corners) {
+      const uint32_t g = has_dummies ? final_face[across / 3] : across / 3;
+      if (g != kFree) o = indices[3 * size_t{g} + across % 3];
+    }
+    entries[first[size_t{m} + 1]++] = NewestTriangle{n, p, o < m ? o : kNoVertexId};
+  }
+  newest.first.pop_back();
   if (final_of_id) {
     final_of_id->assign(ids, kNoVertex);
     for (uint32_t v = 0; v < ids; ++v) {
@@ -368,27 +432,35 @@ namespace {
 // Software-pipelined: symbol i+1 is read before face i is built (see next_valence()), so the
 // entropy decoder does not wait for step()'s memory traffic and mispredicted branches. Stops
 // early, returning true, when the entropy decoder fails (its finish() reports that).
-OSTEON_FLATTEN bool decode_symbols(SpiraleReversi& core, SymbolDecoder& decoder,
-                                   SymbolContext& context, uint32_t symbols, uint32_t* failed_at) {
-  uint32_t symbol = symbols > 0 ? decoder.get(context.get(0)) : 0;
-  for (uint32_t i = 0; i < symbols && decoder.ok(); ++i) {
+OSTEON_NOINLINE OSTEON_FLATTEN bool decode_symbols(SpiraleReversi& core, SymbolDecoder& decoder,
+                                                   const SymbolContext& model, uint32_t symbols,
+                                                   uint32_t* failed_at) {
+  // The entropy decoder's moving parts and the context's history in locals (registers).
+  SymbolDecoder::Cursor cursor = decoder.cursor();
+  SymbolContext context = model;
+  bool ok = true;
+  uint32_t symbol = symbols > 0 ? decoder.get(cursor, context.get(0)) : 0;
+  for (uint32_t i = 0; i < symbols && cursor.ok; ++i) {
     const uint32_t valence = core.next_valence(symbol);
     context.update(symbol);
-    const uint32_t following = i + 1 < symbols ? decoder.get(context.get(valence)) : 0;
-    if (!core.step(symbol)) {
+    const uint32_t following = i + 1 < symbols ? decoder.get(cursor, context.get(valence)) : 0;
+    if (!core.step(symbol)) [[unlikely]] {
       *failed_at = i;
-      return false;
+      ok = false;
+      break;
     }
     symbol = following;
   }
-  return true;
+  decoder.resume(cursor);
+  return ok;
 }
 
 }  // namespace
 
-Result<std::vector<uint32_t>> decode_connectivity(ByteReader& in, uint32_t vertex_count,
-                                                  uint32_t triangle_count,
-                                                  const std::string& source) {
+OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader& in,
+                                                                     uint32_t vertex_count,
+                                                                     uint32_t triangle_count,
+                                                                     const std::string& source) {
   size_t at = in.offset();
   auto bad = [&](const std::string& what) {
     return error(ErrorCode::kInvalidData, source, "connectivity: " + what, at_byte(at));
@@ -402,31 +474,30 @@ Result<std::vector<uint32_t>> decode_connectivity(ByteReader& in, uint32_t verte
   // Counts, each bounded before anything is allocated. Faces of the closed mesh = the triangles
   // plus one dummy face per boundary edge (at most three per triangle) = symbols + components.
   if (triangle_count > kMaxConnectivityTriangles) {
-    return bad(std::to_string(triangle_count) + " triangles, more than 2^28");
+    return bad(message("% triangles, more than 2^28", {triangle_count}));
   }
   uint64_t symbols = 0, components = 0, vertex_ids = 0;
   OSTEON_RETURN_IF_ERROR(read(&symbols, "symbol count"));
   if (symbols > 4 * static_cast<uint64_t>(triangle_count)) {
-    return bad(std::to_string(symbols) + " symbols for " + std::to_string(triangle_count) +
-               " triangles (at most 4 per triangle)");
+    return bad(
+        message("% symbols for % triangles (at most 4 per triangle)", {symbols, triangle_count}));
   }
   OSTEON_RETURN_IF_ERROR(read(&components, "component count"));
   if (components > symbols || symbols + components > 4 * static_cast<uint64_t>(triangle_count) ||
       (triangle_count > 0 && components == 0)) {
-    return bad(std::to_string(components) + " components for " + std::to_string(symbols) +
-               " symbols");
+    return bad(message("% components for % symbols", {components, symbols}));
   }
   OSTEON_RETURN_IF_ERROR(read(&vertex_ids, "vertex id count"));
   if (vertex_ids > 3 * symbols || vertex_ids < vertex_count) {
-    return bad(std::to_string(vertex_ids) + " vertex ids for " + std::to_string(symbols) +
-               " symbols and " + std::to_string(vertex_count) + " vertices");
+    return bad(
+        message("% vertex ids for % symbols and % vertices", {vertex_ids, symbols, vertex_count}));
   }
 
   uint64_t count = 0;
   OSTEON_RETURN_IF_ERROR(read(&count, "split event count"));
   if (count > symbols || !in.fits(count, 2)) {
-    return bad(std::to_string(count) + " split events for " + std::to_string(symbols) +
-               " symbols and " + std::to_string(in.remaining()) + " bytes");
+    return bad(
+        message("% split events for % symbols and % bytes", {count, symbols, in.remaining()}));
   }
   std::vector<SplitEvent> events(count);
   uint64_t previous = 0;
@@ -473,15 +544,15 @@ Result<std::vector<uint32_t>> decode_connectivity(ByteReader& in, uint32_t verte
   at = in.offset();
   uint8_t model = 0;
   if (!in.read_le(&model)) return bad("truncated context model");
-  if (model >= kContextModelCount) return bad("unknown context model " + std::to_string(model));
+  if (model >= kContextModelCount) return bad(message("unknown context model %", {model}));
   SymbolContext context(kContextModels[model]);
   at = in.offset();
   SymbolDecoder decoder;
   OSTEON_RETURN_IF_ERROR(
       decoder.init(in, kSymbolCount, context.contexts(), source, "connectivity"));
   if (decoder.symbols_left() != symbols) {
-    return bad("the symbol section holds " + std::to_string(decoder.symbols_left()) +
-               " symbols, not " + std::to_string(symbols));
+    return bad(
+        message("the symbol section holds % symbols, not %", {decoder.symbols_left(), symbols}));
   }
 
   SpiraleReversi core;
@@ -489,17 +560,17 @@ Result<std::vector<uint32_t>> decode_connectivity(ByteReader& in, uint32_t verte
              static_cast<uint32_t>(vertex_ids), std::move(events));
   uint32_t failed_at = 0;
   if (!decode_symbols(core, decoder, context, static_cast<uint32_t>(symbols), &failed_at)) {
-    return bad(std::string(core.what()) + " at symbol " + std::to_string(failed_at));
+    return bad(core.what() + message(" at symbol %", {failed_at}));
   }
   OSTEON_RETURN_IF_ERROR(decoder.finish(source, "connectivity"));
   if (!core.close_components()) return bad(core.what());
 
-  std::vector<uint32_t> indices;
+  DecodedConnectivity out;
   const char* what = "";
-  if (!uncut(core, dummies, glue, triangle_count, vertex_count, &indices, nullptr, &what)) {
+  if (!uncut(core, dummies, glue, triangle_count, vertex_count, &out, nullptr, &what)) {
     return bad(what);
   }
-  return indices;
+  return out;
 }
 
 }  // namespace osteon::detail

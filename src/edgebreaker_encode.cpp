@@ -244,10 +244,12 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   ConnectivityEncoding out;
   std::vector<VertexIndex> final_of_id;
   const char* what = "";
-  if (!uncut(core, dummies, glue, triangle_count, vertex_count, &out.decoded_indices, &final_of_id,
-             &what)) {
+  DecodedConnectivity decoded;
+  if (!uncut(core, dummies, glue, triangle_count, vertex_count, &decoded, &final_of_id, &what)) {
     return internal(std::string("uncut: ") + what);
   }
+  out.decoded_indices = std::move(decoded.indices);
+  out.decoded_newest = std::move(decoded.newest);
   out.vertex_order.assign(vertex_count, kNone);
   for (uint32_t id = 0; id < vertex_ids; ++id) {
     if (!final_of_id[id].valid()) continue;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "byte_io.hpp"
+#include "connectivity.hpp"
 #include "corner_table.hpp"
 #include "osteon/status.hpp"
 
@@ -130,23 +131,28 @@ class SpiraleReversi {
   /// mispredicted branch in step() does not hold up the entropy decoder. 0 when the step would
   /// fail for want of an active edge. For the symbol context.
   uint32_t next_valence(uint32_t symbol) const {
-    uint32_t candidate[kSymbolCount] = {0, 0, 1, 1, 0};  // C, R, L, E, S
-    if (!stack_.empty()) {
-      const VertexRecord& v = vertices_[vertex_[next(stack_.back())]];
-      candidate[kSymbolC] = vertices_[v.far].count + 1;  // C: the vertex across v's free edge
-      candidate[kSymbolR] = v.count + 1;                 // R: V[n(a)] stays active
+    uint32_t c_count = 0, r_count = 0, s_count = 0;  // stay 0 when the step would fail
+    uint32_t l_count = 1;                            // L and E: a new vertex
+    if (faces_ > 0) {
+      // After every step the active corner (the stack's top) is the new face's c0, so V[n(a)]
+      // is its c1: known without reading the stack.
+      const VertexRecord& v = vertices_[vertex_[CornerIndex(3 * faces_ - 2)]];
+      c_count = vertices_[v.far].count + 1;  // C: the vertex across v's free edge
+      r_count = v.count + 1;                 // R: V[n(a)] stays active
       CornerIndex below = stack_.size() > 1 ? stack_[stack_.size() - 2] : kNoCorner;
-      if (next_event_ < events_.size() && events_[next_event_].split == faces_) {
-        below = CornerIndex(3 * events_[next_event_].source + 1 + events_[next_event_].edge);
-      }
-      if (below.valid()) candidate[kSymbolS] = vertices_[vertex_[next(below)]].count + 1;
+      const SplitEvent& e = events_[next_event_];  // the sentinel when none is left
+      if (e.split == faces_) below = CornerIndex(3 * e.source + 1 + e.edge);
+      if (below.valid()) s_count = vertices_[vertex_[next(below)]].count + 1;
     }
-    // Selects, not an indexed load: the result is on the decoder's critical path.
-    const uint32_t s = symbol;
-    return s == kSymbolC   ? candidate[kSymbolC]
-           : s == kSymbolR ? candidate[kSymbolR]
-           : s == kSymbolS ? candidate[kSymbolS]
-                           : 1;
+    // A select by masks looked up by symbol, not by branches: the result is on the decoder's
+    // critical path, and which symbol comes is a guess the branch predictor often loses (the
+    // compiler turns comparisons with the symbol back into branches).
+    static constexpr uint32_t kIsC[8] = {~0u, 0, 0, 0, 0, 0, 0, 0};
+    static constexpr uint32_t kIsR[8] = {0, ~0u, 0, 0, 0, 0, 0, 0};
+    static constexpr uint32_t kIsS[8] = {0, 0, 0, 0, ~0u, 0, 0, 0};
+    static constexpr uint32_t kIsLE[8] = {0, 0, ~0u, ~0u, 0, ~0u, ~0u, ~0u};
+    const uint32_t s = symbol & 7;
+    return (c_count & kIsC[s]) | (r_count & kIsR[s]) | (s_count & kIsS[s]) | (l_count & kIsLE[s]);
   }
   /// Corners decoded so far on vertex v (0 once v has been merged into another id).
   uint32_t valence(VertexIndex v) const { return vertices_[v].count; }
@@ -160,6 +166,7 @@ class SpiraleReversi {
   VertexIndex vertex(CornerIndex c) const { return vertex_[c]; }
   CornerIndex opposite(CornerIndex c) const { return opposite_[c]; }
   const VertexIndex* corner_vertex() const { return vertex_.data(); }
+  const CornerIndex* corner_opposite() const { return opposite_.data(); }
   const char* what() const { return what_; }
 
  private:
@@ -196,7 +203,7 @@ class SpiraleReversi {
   ScratchArray<CornerIndex, CornerIndex> opposite_;
   ScratchArray<VertexIndex, VertexRecord> vertices_;  // one spare record past the last id
   std::vector<CornerIndex> stack_;
-  std::vector<SplitEvent> events_;
+  std::vector<SplitEvent> events_;  // then a sentinel whose split is no face
   size_t next_event_ = 0;
   uint32_t components_ = 0;
   uint32_t faces_ = 0;
@@ -209,14 +216,15 @@ class SpiraleReversi {
 /// maps each glued copy onto its original, and numbers the remaining vertices in the order of
 /// their keys (the first face in decoding order that uses them). `glue` holds (copy, original)
 /// pairs of vertex ids. Writes exactly `triangle_count` triangles over exactly `vertex_count`
-/// vertices to `indices` (faces in decoding order, corners in face order), and, when
+/// vertices to out->indices (faces in decoding order, corners in face order) and their newest
+/// triangles to out->newest (an edge shared with a dummy face has nothing across), and, when
 /// `final_of_id` is not null, the final vertex of each vertex id (kNoVertex for dead ids and
 /// dummies). False (with *what) when the counts disagree, an id is out of range or not a vertex,
 /// a triangle would repeat a vertex or a vertex would be left unused. O(faces + vertex ids).
 bool uncut(const SpiraleReversi& core, const std::vector<uint32_t>& dummies,
            const std::vector<std::pair<uint32_t, uint32_t>>& glue, uint32_t triangle_count,
-           uint32_t vertex_count, std::vector<uint32_t>* indices,
-           std::vector<VertexIndex>* final_of_id, const char** what);
+           uint32_t vertex_count, DecodedConnectivity* out, std::vector<VertexIndex>* final_of_id,
+           const char** what);
 
 // ---- the symbol context model ------------------------------------------------------------------
 
@@ -239,10 +247,10 @@ inline constexpr ContextModel kContextModels[] = {
 };
 inline constexpr uint32_t kContextModelCount =
     static_cast<uint32_t>(sizeof(kContextModels) / sizeof(kContextModels[0]));
-/// The models the encoder tries: the first four (at most 200 contexts). The entropy decoder keeps
-/// a 4096-slot table per context, so models 4 and 5 (hundreds of contexts used on a large mesh)
-/// win 1-2% of size but decode up to 1.6x slower from cache misses; the decoder reads them all.
-inline constexpr uint32_t kEncoderContextModels = 4;
+/// The models the encoder tries: all of them. (The entropy decoder's tables for this 5-symbol
+/// alphabet are 16 bytes a context, so the large models 4 and 5, which save 2-3% of the section
+/// on large meshes, decode as fast as the small ones.)
+inline constexpr uint32_t kEncoderContextModels = kContextModelCount;
 
 /// Tracks the features and turns them into a context id for one model.
 class SymbolContext {
@@ -262,8 +270,13 @@ class SymbolContext {
     contexts_ = weight;
     static constexpr uint8_t kLen8[8] = {0, 1, 2, 3, 4, 5, 6, 7};
     static constexpr uint8_t kLen4[8] = {0, 0, 1, 1, 2, 3, 3, 3};
-    for (int i = 0; i < 8; ++i) {
-      len_map_[i] = model.len_buckets == 8 ? kLen8[i] : model.len_buckets == 4 ? kLen4[i] : 0;
+    for (uint32_t len = 0; len <= 32; ++len) {
+      // len bucket: 0, 1, 2, 3, 4-7, 8-15, 16-31, 32+ (len saturates at 32).
+      const uint32_t len8 = len < 4 ? len : static_cast<uint32_t>(std::bit_width(len)) + 1;
+      const uint32_t bucket = model.len_buckets == 8   ? kLen8[len8]
+                              : model.len_buckets == 4 ? kLen4[len8]
+                                                       : 0;
+      len_term_[len] = w_len_ * bucket;
     }
   }
   uint32_t contexts() const { return contexts_; }
@@ -276,16 +289,16 @@ class SymbolContext {
     p3_ = p2_;
     p2_ = p1_;
     p1_ = symbol;
-    len_ = (symbol == kSymbolE || symbol == kSymbolS) ? 0 : (len_ < 32 ? len_ + 1 : 32);
-    // len bucket: 0, 1, 2, 3, 4-7, 8-15, 16-31, 32+ (len saturates at 32).
-    const uint32_t len8 = len_ < 4 ? len_ : static_cast<uint32_t>(std::bit_width(len_)) + 1;
-    history_ = w_p1_ * p1_ + w_p2_ * p2_ + w_p3_ * p3_ + w_len_ * len_map_[len8];
+    // By tables, not branches (as in next_valence()): E and S reset len, which saturates at 32.
+    static constexpr uint32_t kKeepsLen[8] = {~0u, ~0u, ~0u, 0, 0, ~0u, ~0u, ~0u};
+    len_ = (len_ + (len_ < 32 ? 1 : 0)) & kKeepsLen[symbol & 7];
+    history_ = w_p1_ * p1_ + w_p2_ * p2_ + w_p3_ * p3_ + len_term_[len_];
   }
 
  private:
   uint32_t w_p1_ = 0, w_p2_ = 0, w_p3_ = 0, w_va_ = 0, w_len_ = 0;
   uint32_t contexts_ = 1;
-  uint8_t len_map_[8] = {};
+  uint32_t len_term_[33] = {};  // w_len * the bucket of len, for len 0..32
   uint32_t p1_ = 0, p2_ = 0, p3_ = 0, len_ = 0;
   uint32_t history_ = 0;  // the context without va (all features 0 before the first symbol)
 };

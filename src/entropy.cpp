@@ -2,6 +2,7 @@
 #include "entropy.hpp"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cassert>
 #include <cmath>
@@ -34,10 +35,13 @@ constexpr uint32_t kRansLow = 1u << 23;           // the state lives in [kRansLo
 constexpr uint64_t kMaxSymbols = 0xffffffffu;
 constexpr int kMaxGammaZeros = 32;   // gamma-coded values are < 2^33
 constexpr int kMaxGolombOrder = 31;  // so (2^33 - 1) << k fits in 64 bits
-// A decode step in a context of two or more symbols (every frequency <= 4095) shrinks the state
+// The symbols are coded by kStates interleaved rANS states: symbol i by state i mod kStates.
+constexpr uint32_t kStates = 3;
+// A decode step in a context of two or more symbols (every frequency <= 4095) shrinks its state
 // by a factor <= 1 - 2^-12 (plus 1); a byte read grows it by < 2^8. Starting below 2^31 and
-// ending at >= 2^23, a stream of R renormalisation bytes holds fewer than 22,720 * (R + 1) such
-// symbols; kSymbolsPerByte rounds that up.
+// ending at >= 2^23, a state that reads R renormalisation bytes decodes fewer than
+// 22,720 * (R + 1) such symbols, so kStates states reading R bytes in all fewer than
+// 22,720 * (R + kStates); kSymbolsPerByte rounds that up.
 constexpr uint64_t kSymbolsPerByte = 8 * kProbScale;
 
 // ---- LEB128 varints --------------------------------------------------------------------------
@@ -165,7 +169,7 @@ struct WeightTable {
 /// Integer arithmetic only, so the encoder and every decoder (native or WebAssembly) compute the
 /// same table. A single symbol gets all kProbScale slots and then costs no bits.
 /// O(n log n) for n weights.
-std::vector<uint32_t> normalize(const std::vector<uint32_t>& weights) {
+OSTEON_COLD_FUNCTION std::vector<uint32_t> normalize(const std::vector<uint32_t>& weights) {
   const size_t n = weights.size();
   assert(n >= 1 && n <= kProbScale);
   std::vector<uint32_t> freq(n, kProbScale);
@@ -478,15 +482,15 @@ struct TableBlock {
 
 /// Reads one table (write_model's layout), checking every symbol and weight. Errors name the
 /// byte `base` + the reader's position.
-Status read_model(BitReader& bits, uint32_t alphabet, const std::string& in_context,
-                  const SectionErrors& errors, size_t base, WeightTable* model) {
+OSTEON_COLD_FUNCTION Status read_model(BitReader& bits, uint32_t alphabet, uint64_t context,
+                                       const SectionErrors& errors, size_t base,
+                                       WeightTable* model) {
   auto bad = [&](const std::string& message) { return errors(base + bits.byte_offset(), message); };
   uint64_t sparse = 0;
   uint64_t count = 0;  // dense: symbols up to the last present one; sparse: present symbols
   if (!bits.get(1, &sparse) || !bits.gamma(&count)) return bad("truncated frequency tables");
   if (count > alphabet) {
-    return bad(std::to_string(count) + " symbols" + in_context + ", alphabet " +
-               std::to_string(alphabet));
+    return bad(message("% symbols in context %, alphabet %", {count, context, alphabet}));
   }
   if (sparse == 1) {
     uint64_t symbol = ~uint64_t{0};  // "-1": the first gap is symbol + 1
@@ -495,8 +499,8 @@ Status read_model(BitReader& bits, uint32_t alphabet, const std::string& in_cont
       if (!bits.gamma(&gap)) return bad("truncated frequency tables");
       symbol += gap;
       if (symbol >= alphabet) {
-        return bad("symbol " + std::to_string(symbol) + " out of range" + in_context +
-                   " (alphabet " + std::to_string(alphabet) + ")");
+        return bad(message("symbol % out of range in context % (alphabet %)",
+                           {symbol, context, alphabet}));
       }
       model->symbols.push_back(static_cast<uint32_t>(symbol));
     }
@@ -508,7 +512,7 @@ Status read_model(BitReader& bits, uint32_t alphabet, const std::string& in_cont
   uint64_t order = 0;  // stored + 1
   if (!bits.gamma(&order)) return bad("truncated frequency tables");
   if (order - 1 > kMaxGolombOrder) {
-    return bad("bad weight code " + std::to_string(order - 1) + in_context);
+    return bad(message("bad weight code % in context %", {order - 1, context}));
   }
   for (uint64_t i = 0; i < count; ++i) {
     uint64_t weight = 0;
@@ -516,18 +520,18 @@ Status read_model(BitReader& bits, uint32_t alphabet, const std::string& in_cont
       return bad("truncated frequency tables");
     }
     weight += sparse;  // sparse weights are stored - 1; dense ones are 0 for absent symbols
-    if (weight > 0xffffffffu) return bad("weight out of range" + in_context);
+    if (weight > 0xffffffffu) return bad(message("weight out of range in context %", {context}));
     if (sparse == 0 && weight != 0) model->symbols.push_back(static_cast<uint32_t>(i));
     if (weight != 0) model->weights.push_back(static_cast<uint32_t>(weight));
   }
-  if (model->symbols.empty()) return bad("no symbols" + in_context);
+  if (model->symbols.empty()) return bad(message("no symbols in context %", {context}));
   return Status::ok_status();
 }
 
 /// Reads the table block (FORMAT.md) from `in`, checking every context, reference, symbol and
 /// weight.
-Status read_tables(ByteReader& in, uint32_t alphabet, uint32_t contexts, const SectionErrors& bad,
-                   TableBlock* tables) {
+OSTEON_COLD_FUNCTION Status read_tables(ByteReader& in, uint32_t alphabet, uint32_t contexts,
+                                        const SectionErrors& bad, TableBlock* tables) {
   const size_t base = in.offset();
   BitReader bits(in.current(), in.remaining());
   auto bad_here = [&](const std::string& message) {
@@ -536,8 +540,7 @@ Status read_tables(ByteReader& in, uint32_t alphabet, uint32_t contexts, const S
   uint64_t used = 0;
   if (!bits.gamma(&used)) return bad_here("truncated frequency tables");
   if (used > contexts) {
-    return bad(base, std::to_string(used) + " contexts declared, the coder has " +
-                         std::to_string(contexts));
+    return bad(base, message("% contexts declared, the coder has %", {used, contexts}));
   }
   uint64_t context = ~uint64_t{0};  // "-1": the first gap is context + 1
   for (uint64_t u = 0; u < used; ++u) {
@@ -548,18 +551,16 @@ Status read_tables(ByteReader& in, uint32_t alphabet, uint32_t contexts, const S
     }
     context += gap;
     if (context >= contexts) {
-      return bad_here("context " + std::to_string(context) + " out of range (" +
-                      std::to_string(contexts) + " contexts)");
+      return bad_here(message("context % out of range (% contexts)", {context, contexts}));
     }
-    const std::string in_context = " in context " + std::to_string(context);
     if (reference == 1) {
       WeightTable model;
-      OSTEON_RETURN_IF_ERROR(read_model(bits, alphabet, in_context, bad, base, &model));
+      OSTEON_RETURN_IF_ERROR(read_model(bits, alphabet, context, bad, base, &model));
       tables->models.push_back(std::move(model));
       reference = tables->models.size() + 1;
     } else if (reference - 2 >= tables->models.size()) {
-      return bad_here("table " + std::to_string(reference - 2) + " named" + in_context + ", only " +
-                      std::to_string(tables->models.size()) + " defined");
+      return bad_here(message("table % named in context %, only % defined",
+                              {reference - 2, context, tables->models.size()}));
     }
     tables->table_of.emplace_back(static_cast<uint32_t>(context),
                                   static_cast<uint32_t>(reference - 2));
@@ -570,6 +571,24 @@ Status read_tables(ByteReader& in, uint32_t alphabet, uint32_t contexts, const S
 }
 
 }  // namespace
+
+OSTEON_COLD_FUNCTION std::string message(const char* pattern,
+                                         std::initializer_list<uint64_t> numbers) {
+  std::string out;
+  const uint64_t* next = numbers.begin();
+  for (const char* p = pattern; *p != 0; ++p) {
+    if (*p != '%' || next == numbers.end()) {
+      out += *p;
+      continue;
+    }
+    char digits[20];
+    int n = 0;
+    for (uint64_t v = *next++; n == 0 || v != 0; v /= 10)
+      digits[n++] = static_cast<char>('0' + v % 10);
+    while (n > 0) out += digits[--n];
+  }
+  return out;
+}
 
 // ---- encoder ---------------------------------------------------------------------------------
 
@@ -656,24 +675,31 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
     }
     out->insert(out->end(), block.bytes().begin(), block.bytes().end());
 
-    // rANS, last symbol first, bytes written backwards: each symbol emits at most two.
-    std::vector<uint8_t> buffer(2 * n + 4);
+    // rANS, last symbol first, bytes written backwards into one buffer that all states share:
+    // each symbol emits at most two. The decoder reads them forwards, each step's bytes where
+    // the encoder's same step wrote them.
+    std::vector<uint8_t> buffer(2 * n + 4 * kStates);
     uint8_t* const end = buffer.data() + buffer.size();
     uint8_t* p = end;
-    uint32_t x = kRansLow;
+    uint32_t states[kStates];
+    std::fill(states, states + kStates, kRansLow);
     for (size_t i = n; i-- > 0;) {
       const uint32_t q = queued_[i];
       const size_t index = size_t{group[row[q >> kProbBits]]} * alphabet_ + (q & (kProbScale - 1));
       const uint32_t f = freq[index];
       const uint32_t x_max = ((kRansLow >> kProbBits) << 8) * f;  // <= 2^31
+      uint32_t& x = states[i % kStates];
       while (x >= x_max) {
         *--p = static_cast<uint8_t>(x);
         x >>= 8;
       }
       x = ((x / f) << kProbBits) + (x % f) + start[index];
     }
-    p -= 4;  // the final state, little-endian: the decoder's initial state
-    for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(x >> (8 * i));
+    // The final states, little-endian, state 0 first: the decoder's initial states.
+    p -= 4 * kStates;
+    for (uint32_t k = 0; k < kStates; ++k) {
+      for (int i = 0; i < 4; ++i) p[4 * k + i] = static_cast<uint8_t>(states[k] >> (8 * i));
+    }
     write_varint(out, static_cast<uint64_t>(end - p));
     out->insert(out->end(), p, end);
   }
@@ -682,8 +708,9 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
 
 // ---- decoder ---------------------------------------------------------------------------------
 
-Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet, uint32_t contexts,
-                           const std::string& source, const std::string& what) {
+OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet,
+                                                uint32_t contexts, const std::string& source,
+                                                const std::string& what) {
   assert(alphabet >= 2 && alphabet <= kProbScale);
   assert(contexts >= 1 && contexts <= kMaxContexts);
   *this = SymbolDecoder();
@@ -693,18 +720,18 @@ Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet, uint32_t contexts,
   uint64_t symbols = 0;
   if (!read_varint(in, &symbols)) return bad(at, "truncated symbol count");
   if (symbols > kMaxSymbols) {
-    return bad(at, std::to_string(symbols) + " symbols declared, more than 2^32 - 1");
+    return bad(at, message("% symbols declared, more than 2^32 - 1", {symbols}));
   }
   at = in.offset();
   uint64_t bit_count = 0;
   if (!read_varint(in, &bit_count)) return bad(at, "truncated raw bit count");
   const uint64_t bit_bytes = bit_count / 8 + (bit_count % 8 != 0 ? 1 : 0);
   if (!in.fits(bit_bytes, 1)) {
-    return bad(at, std::to_string(bit_count) + " raw bits declared, " +
-                       std::to_string(in.remaining()) + " bytes remain");
+    return bad(at, message("% raw bits declared, % bytes remain", {bit_count, in.remaining()}));
   }
 
-  state_ = kRansLow;  // an empty stream "ends" where the encoder started
+  // An empty stream "ends" where the encoder started.
+  hot_.x0 = hot_.x1 = hot_.x2 = kRansLow;
   if (symbols > 0) {
     TableBlock tables;
     OSTEON_RETURN_IF_ERROR(read_tables(in, alphabet, contexts, bad, &tables));
@@ -712,44 +739,82 @@ Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet, uint32_t contexts,
     at = in.offset();
     uint64_t rans_bytes = 0;
     if (!read_varint(in, &rans_bytes)) return bad(at, "truncated rANS byte count");
-    if (rans_bytes < 4 || !in.fits(rans_bytes, 1) || in.remaining() - rans_bytes < bit_bytes) {
-      return bad(at, std::to_string(rans_bytes) + " rANS bytes declared, " +
-                         std::to_string(in.remaining()) + " bytes remain for them and " +
-                         std::to_string(bit_bytes) + " raw bytes");
+    if (rans_bytes < 4 * kStates || !in.fits(rans_bytes, 1) ||
+        in.remaining() - rans_bytes < bit_bytes) {
+      return bad(at, message("% rANS bytes declared, % bytes remain for them and % raw bytes",
+                             {rans_bytes, in.remaining(), bit_bytes}));
     }
     // Unless a context is deterministic (its symbols cost no bits), every symbol costs bits.
     bool deterministic = false;
     for (const WeightTable& m : models) deterministic = deterministic || m.symbols.size() == 1;
-    if (!deterministic && symbols > kSymbolsPerByte * (rans_bytes - 3)) {
-      return bad(at, std::to_string(symbols) + " symbols cannot fit in " +
-                         std::to_string(rans_bytes) + " rANS bytes");
+    if (!deterministic && symbols > kSymbolsPerByte * (rans_bytes - 3 * kStates)) {
+      return bad(at, message("% symbols cannot fit in % rANS bytes", {symbols, rans_bytes}));
     }
     rans_at_ = in.offset();
-    uint32_t state = 0;
-    (void)in.read_le(&state);
-    if (state < kRansLow || state >= (1u << 31)) {
-      return bad(rans_at_, "initial rANS state out of range");
-    }
-    state_ = state;
-    data_ = in.current();
-    cur_ = data_;
-    end_ = data_ + (rans_bytes - 4);
-    (void)in.skip(static_cast<size_t>(rans_bytes - 4));
-
-    // Decoding tables: every slot names its symbol, so a step is one lookup.
-    table_of_.assign(kMaxContexts, kNoTable);
-    slots_.resize(models.size() * kProbScale);
-    for (size_t t = 0; t < models.size(); ++t) {
-      const std::vector<uint32_t> freq = normalize(models[t].weights);
-      Slot* slot = slots_.data() + t * kProbScale;
-      for (size_t i = 0; i < freq.size(); ++i) {
-        for (uint32_t k = 0; k < freq[i]; ++k) {
-          *slot++ = Slot{static_cast<uint16_t>(models[t].symbols[i]),
-                         static_cast<uint16_t>(freq[i]), static_cast<uint16_t>(k)};
-        }
+    uint32_t states[kStates] = {};
+    for (uint32_t& state : states) {
+      (void)in.read_le(&state);  // rans_bytes >= 4 * kStates remain
+      if (state < kRansLow || state >= (1u << 31)) {
+        return bad(in.offset() - 4, "initial rANS state out of range");
       }
     }
-    for (const auto& [context, t] : tables.table_of) table_of_[context] = t * kProbScale;
+    static_assert(kStates == 3);
+    hot_.x0 = states[0];
+    hot_.x1 = states[1];
+    hot_.x2 = states[2];
+    data_ = in.current();
+    hot_.cur = data_;
+    end_ = data_ + (rans_bytes - 4 * kStates);
+    (void)in.skip(static_cast<size_t>(rans_bytes - 4 * kStates));
+
+    // Search tables (entropy.hpp): cumulative frequencies per context for small alphabets,
+    // entries per table and buckets per context for large ones.
+    small_ = alphabet <= kSmallAlphabet;
+    contexts_ = contexts;
+    std::vector<std::array<uint16_t, 8>> rows(small_ ? models.size() : 0);
+    std::vector<TableRef> refs(models.size());
+    size_t entries = 0;
+    for (const WeightTable& m : models) entries += m.symbols.size() + 1;
+    entries_.resize(small_ ? 0 : entries);
+    buckets_.resize(small_ ? 0 : models.size() * kBuckets);
+    uint32_t base = 0;
+    for (size_t t = 0; t < models.size(); ++t) {
+      const std::vector<uint32_t> freq = normalize(models[t].weights);
+      const std::vector<uint32_t>& present = models[t].symbols;
+      if (small_) {
+        std::array<uint32_t, 8> f{};
+        for (size_t i = 0; i < freq.size(); ++i) f[present[i]] = freq[i];
+        uint32_t cumulative = 0;
+        for (uint32_t k = 0; k < 8; ++k) {
+          rows[t][k] = static_cast<uint16_t>(cumulative);
+          cumulative += f[k];
+        }
+        continue;
+      }
+      refs[t] = {static_cast<uint32_t>(t * kBuckets), base};
+      uint32_t cumulative = 0;
+      uint32_t bucket = 0;  // buckets before it are filled
+      for (size_t i = 0; i < freq.size(); ++i) {
+        entries_[base + i] = cumulative | present[i] << 16;
+        cumulative += freq[i];
+        // Buckets whose first slot falls in [start, start + freq) belong to entry i.
+        for (; bucket < kBuckets && (bucket << (kProbBits - kBucketBits)) < cumulative; ++bucket) {
+          buckets_[t * kBuckets + bucket] = static_cast<uint16_t>(i);  // i < alphabet <= 4096
+        }
+      }
+      entries_[base + freq.size()] = kProbScale;  // the sentinel
+      base += static_cast<uint32_t>(freq.size() + 1);
+    }
+    if (small_) {
+      cum_.assign(8 * size_t{contexts}, 0);
+      for (uint32_t c = 0; c < contexts; ++c) cum_[8 * size_t{c}] = kAbsent;
+      for (const auto& [context, t] : tables.table_of) {
+        std::copy(rows[t].begin(), rows[t].end(), cum_.begin() + 8 * size_t{context});
+      }
+    } else {
+      table_of_.assign(contexts, TableRef{kNoTable, 0});
+      for (const auto& [context, t] : tables.table_of) table_of_[context] = refs[t];
+    }
   }
 
   bits_at_ = in.offset();
@@ -760,59 +825,74 @@ Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet, uint32_t contexts,
     return bad(bits_at_ + bit_bytes - 1, "nonzero padding after the raw bits");
   }
   (void)in.skip(static_cast<size_t>(bit_bytes));
-  spare_ = static_cast<size_t>(symbols);
-  ok_ = true;
+  hot_.spare = static_cast<size_t>(symbols);
+  hot_.ok = true;
   return Status::ok_status();
 }
 
-uint32_t SymbolDecoder::get_slow(uint32_t context) {
-  if (budget_ == 0) {  // refill: as many symbols as surely have two bytes each
-    budget_ = std::min<size_t>(spare_, static_cast<size_t>(end_ - cur_) / 2);
-    spare_ -= budget_;
+SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t context) const {
+  if (c.budget == 0) {  // refill: as many symbols as surely have two bytes each
+    c.budget = std::min<size_t>(c.spare, static_cast<size_t>(end_ - c.cur) / 2);
+    c.spare -= c.budget;
   }
-  if (context >= table_of_.size() || table_of_[context] == kNoTable) return fail();
-  if (budget_ > 0) return get(context);
-  if (spare_ == 0) return fail();
-  --spare_;
-  const Slot slot = slots_[table_of_[context] + (state_ & (kProbScale - 1))];
-  uint32_t x = slot.freq * (state_ >> kProbBits) + slot.bias;
-  while (x < kRansLow) {
-    if (cur_ == end_) {
-      state_ = x;
-      return fail();
-    }
-    x = (x << 8) | *cur_++;
+  const uint32_t x = c.x0;
+  const uint32_t slot = x & (kProbScale - 1);
+  uint32_t symbol = 0, start = 0, freq = 0;
+  if (context >= contexts_ || !find(context, slot, &symbol, &start, &freq)) return failed(c);
+  // A symbol of the budget keeps 2 * budget <= end_ - cur (it reads at most two bytes); past the
+  // budget, one of the stream's last symbols, whose bytes are checked one by one.
+  if (c.budget > 0) {
+    --c.budget;
+  } else if (c.spare > 0) {
+    --c.spare;
+  } else {
+    return failed(c);
   }
-  state_ = x;
-  return slot.symbol;
+  uint32_t y = freq * (x >> kProbBits) + slot - start;
+  while (y < kRansLow) {
+    if (c.cur == end_) return failed(c);
+    y = (y << 8) | *c.cur++;
+  }
+  c.x0 = c.x1;
+  c.x1 = c.x2;
+  c.x2 = y;
+  return {c, symbol};
 }
 
-uint32_t SymbolDecoder::get_bits_slow(int count) {
-  if (bit_pos_ + static_cast<uint64_t>(count) > bit_size_) {
-    bit_pos_ = bit_size_;
-    return fail();
+// Out of line, so that get3() inlines one copy of the fast path, not four.
+void SymbolDecoder::get3_slow(Cursor& c, const uint32_t context[3], uint32_t symbol[3]) const {
+  for (int k = 0; k < 3; ++k) symbol[k] = get(c, context[k]);
+}
+
+SymbolDecoder::Step SymbolDecoder::get_bits_slow(Cursor c, int count) const {
+  if (c.bit_pos + static_cast<uint64_t>(count) > bit_size_) {
+    c.bit_pos = bit_size_;
+    return failed(c);
   }
   uint64_t value = 0;
-  for (int i = 0; i < count; ++i, ++bit_pos_) {
-    value |= static_cast<uint64_t>((bits_[bit_pos_ >> 3] >> (bit_pos_ & 7)) & 1) << i;
+  for (int i = 0; i < count; ++i, ++c.bit_pos) {
+    value |= static_cast<uint64_t>((bits_[c.bit_pos >> 3] >> (c.bit_pos & 7)) & 1) << i;
   }
-  return static_cast<uint32_t>(value);
+  return {c, value};
 }
 
-Status SymbolDecoder::finish(const std::string& source, const std::string& what) const {
+OSTEON_COLD_FUNCTION Status SymbolDecoder::finish(const std::string& source,
+                                                  const std::string& what) const {
   const SectionErrors bad{source, what};
-  if (!ok_) return bad(rans_at_, "corrupt symbol stream, or one read past its end");
+  if (!hot_.ok) return bad(rans_at_, "corrupt symbol stream, or one read past its end");
   if (symbols_left() != 0) {
-    return bad(rans_at_, std::to_string(symbols_left()) + " symbols left unread");
+    return bad(rans_at_, message("% symbols left unread", {symbols_left()}));
   }
-  if (cur_ != end_) {
-    return bad(rans_at_ + 4 + static_cast<size_t>(cur_ - data_),
-               std::to_string(end_ - cur_) + " rANS bytes left unread");
+  if (hot_.cur != end_) {
+    return bad(rans_at_ + 4 * kStates + static_cast<size_t>(hot_.cur - data_),
+               message("% rANS bytes left unread", {static_cast<uint64_t>(end_ - hot_.cur)}));
   }
-  if (state_ != kRansLow) return bad(rans_at_, "the rANS state does not end where it began");
-  if (bit_pos_ != bit_size_) {
-    return bad(bits_at_ + static_cast<size_t>(bit_pos_ / 8),
-               std::to_string(bit_size_ - bit_pos_) + " raw bits left unread");
+  if (hot_.x0 != kRansLow || hot_.x1 != kRansLow || hot_.x2 != kRansLow) {
+    return bad(rans_at_, "the rANS states do not end where they began");
+  }
+  if (hot_.bit_pos != bit_size_) {
+    return bad(bits_at_ + static_cast<size_t>(hot_.bit_pos / 8),
+               message("% raw bits left unread", {bit_size_ - hot_.bit_pos}));
   }
   return Status::ok_status();
 }

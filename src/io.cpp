@@ -28,21 +28,30 @@ namespace fs = std::filesystem;
 
 const char* format_name(Format format) {
   switch (format) {
-    case Format::kStl: return "stl";
-    case Format::kObj: return "obj";
-    case Format::kPly: return "ply";
-    case Format::kOff: return "off";
-    case Format::kVtk: return "vtk";
-    case Format::kGltf: return "gltf";
-    case Format::kGlb: return "glb";
-    case Format::kUnknown: break;
+    case Format::kStl:
+      return "stl";
+    case Format::kObj:
+      return "obj";
+    case Format::kPly:
+      return "ply";
+    case Format::kOff:
+      return "off";
+    case Format::kVtk:
+      return "vtk";
+    case Format::kGltf:
+      return "gltf";
+    case Format::kGlb:
+      return "glb";
+    case Format::kUnknown:
+      break;
   }
   return "unknown";
 }
 
 Format format_from_extension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   if (ext == ".stl") return Format::kStl;
   if (ext == ".obj") return Format::kObj;
   if (ext == ".ply") return Format::kPly;
@@ -83,19 +92,28 @@ Format sniff_format(const uint8_t* data, size_t size) {
 
 namespace {
 
-std::string stem_of(const std::string& source) { return fs::path(source).stem().string(); }
+std::string stem_of(const std::string& source) {
+  return fs::path(source).stem().string();
+}
 
 Status dispatch(Format format, const uint8_t* data, size_t size, const std::string& source,
                 const std::string& base_dir, const ReadOptions& options, Scene* scene) {
   switch (format) {
-    case Format::kStl: return detail::parse_stl(data, size, source, options, scene);
-    case Format::kObj: return detail::parse_obj(data, size, source, options, scene);
-    case Format::kPly: return detail::parse_ply(data, size, source, options, scene);
-    case Format::kOff: return detail::parse_off(data, size, source, options, scene);
-    case Format::kVtk: return detail::parse_vtk(data, size, source, options, scene);
+    case Format::kStl:
+      return detail::parse_stl(data, size, source, options, scene);
+    case Format::kObj:
+      return detail::parse_obj(data, size, source, options, scene);
+    case Format::kPly:
+      return detail::parse_ply(data, size, source, options, scene);
+    case Format::kOff:
+      return detail::parse_off(data, size, source, options, scene);
+    case Format::kVtk:
+      return detail::parse_vtk(data, size, source, options, scene);
     case Format::kGltf:
-    case Format::kGlb: return detail::parse_gltf(data, size, source, base_dir, options, scene);
-    case Format::kUnknown: break;
+    case Format::kGlb:
+      return detail::parse_gltf(data, size, source, base_dir, options, scene);
+    case Format::kUnknown:
+      break;
   }
   return error(ErrorCode::kUnsupported, source,
                "unknown mesh format (expected .stl, .obj, .ply, .off, .vtk, .gltf or .glb)");

@@ -114,8 +114,9 @@ Status read_vec3(TextReader& text, const std::string& source, const char* what, 
     std::string_view token = next_token(text);
     if (!parse_float(token, v)) {
       return error(ErrorCode::kInvalidData, source,
-                   token.empty() ? std::string(what) + " needs three numbers"
-                                 : std::string(what) + ": " + quote_token(token) + " is not a number",
+                   token.empty()
+                       ? std::string(what) + " needs three numbers"
+                       : std::string(what) + ": " + quote_token(token) + " is not a number",
                    text.where());
     }
   }

@@ -84,8 +84,8 @@ Status bad_value(const std::string& source, const std::string& what, std::string
   if (token.empty()) {
     return error(ErrorCode::kInvalidData, source, "the file ends in " + what, text.where());
   }
-  return error(ErrorCode::kInvalidData, source, what + ": " + quote_token(token) + " is not a number",
-               text.where());
+  return error(ErrorCode::kInvalidData, source,
+               what + ": " + quote_token(token) + " is not a number", text.where());
 }
 
 Status read_count(TextReader& text, std::string_view token, const std::string& source,
@@ -221,10 +221,10 @@ Status parse_off(const uint8_t* data, size_t size, const std::string& source,
                      text.where());
       }
       if (!parse_int(index_token, &index)) {
-        return error(
-            ErrorCode::kInvalidData, source,
-            "face " + std::to_string(f) + ": " + quote_token(index_token) + " is not a vertex index",
-            text.where());
+        return error(ErrorCode::kInvalidData, source,
+                     "face " + std::to_string(f) + ": " + quote_token(index_token) +
+                         " is not a vertex index",
+                     text.where());
       }
       if (index < 0 || static_cast<uint64_t>(index) >= vertex_count) {
         return error(ErrorCode::kInvalidData, source,

@@ -238,7 +238,8 @@ Status parse_header(TextReader& text, const std::string& source, PlyHeader* head
         type = text.next_token_on_line();
         if (!good) {
           return error(ErrorCode::kInvalidData, source,
-                       "list count type " + quote_token(count_type) + " is not an integer type", where);
+                       "list count type " + quote_token(count_type) + " is not an integer type",
+                       where);
         }
       }
       if (!parse_type(type, &property.type)) {
@@ -251,7 +252,8 @@ Status parse_header(TextReader& text, const std::string& source, PlyHeader* head
       }
       header->elements.back().properties.push_back(std::move(property));
     } else {
-      return error(ErrorCode::kInvalidData, source, "unknown header line " + quote_token(key), where);
+      return error(ErrorCode::kInvalidData, source, "unknown header line " + quote_token(key),
+                   where);
     }
     text.skip_line();
   }
@@ -415,9 +417,10 @@ struct PlyCounts {
 template <class Source>
 Status item_error(const Source& src, const std::string& source, const PlyElement& element,
                   uint64_t item, const std::string& what, size_t mark) {
-  return error(ErrorCode::kInvalidData, source,
-               "element " + quote_token(element.name) + " item " + std::to_string(item) + ": " + what,
-               src.where(mark));
+  return error(
+      ErrorCode::kInvalidData, source,
+      "element " + quote_token(element.name) + " item " + std::to_string(item) + ": " + what,
+      src.where(mark));
 }
 
 /// Reads a list's count and checks that the file can still hold that many items.
@@ -460,7 +463,8 @@ Status skip_element(Source& src, const std::string& source, const PlyElement& el
   if (!element.has_list()) {
     if (!src.skip_items(element, element.count)) {
       return error(ErrorCode::kInvalidData, source,
-                   "element " + quote_token(element.name) + ": " + src.problem(), src.where(src.mark()));
+                   "element " + quote_token(element.name) + ": " + src.problem(),
+                   src.where(src.mark()));
     }
     return {};
   }
@@ -805,7 +809,8 @@ Status make_plan(const PlyHeader& header, const std::string& source, size_t data
     if (*list == kNone && both_names) *list = element.find("vertex_index");
     if (*list == kNone || !element.properties[*list].is_list) {
       return error(ErrorCode::kInvalidData, source,
-                   "element " + quote_token(element.name) + " has no vertex_indices list", header_end);
+                   "element " + quote_token(element.name) + " has no vertex_indices list",
+                   header_end);
     }
     return {};
   };
@@ -826,10 +831,10 @@ Status make_plan(const PlyHeader& header, const std::string& source, size_t data
     if (item_bytes == 0) continue;
     if (element.count > budget / item_bytes) {
       return error(ErrorCode::kInvalidData, source,
-                   "element " + quote_token(element.name) + " declares " + std::to_string(element.count) +
-                       " items of at least " + std::to_string(item_bytes) +
-                       " bytes, more than the " + std::to_string(remaining) +
-                       " bytes after the header can hold",
+                   "element " + quote_token(element.name) + " declares " +
+                       std::to_string(element.count) + " items of at least " +
+                       std::to_string(item_bytes) + " bytes, more than the " +
+                       std::to_string(remaining) + " bytes after the header can hold",
                    ascii ? header_end : at_byte(data_offset));
     }
     budget -= element.count * item_bytes;

@@ -153,8 +153,7 @@ Status parse_ascii(const uint8_t* data, size_t size, const std::string& source,
           std::string_view number = in.next_token_on_line();
           if (!parse_float(number, &c)) {
             return error(ErrorCode::kInvalidData, source,
-                         "expected a number but found " + quote_token(number),
-                         in.where());
+                         "expected a number but found " + quote_token(number), in.where());
           }
         }
         Vec3 v{xyz[0], xyz[1], xyz[2]};
@@ -174,7 +173,8 @@ Status parse_ascii(const uint8_t* data, size_t size, const std::string& source,
     ++solids;
     if (!mesh.indices.empty()) scene->parts.push_back(std::move(mesh));
   }
-  if (solids == 0) return error(ErrorCode::kInvalidData, source, "no 'solid' in the file", "line 1");
+  if (solids == 0)
+    return error(ErrorCode::kInvalidData, source, "no 'solid' in the file", "line 1");
   return {};
 }
 
@@ -214,7 +214,8 @@ Status parse_stl_file(std::FILE* file, uint64_t size, const std::string& source,
     std::vector<uint8_t> data(size);
     std::memcpy(data.data(), header, head);
     if (size > head && std::fread(data.data() + head, 1, size - head, file) != size - head) {
-      return error(ErrorCode::kIoError, source, std::string("read failed: ") + std::strerror(errno));
+      return error(ErrorCode::kIoError, source,
+                   std::string("read failed: ") + std::strerror(errno));
     }
     return parse_stl(data.data(), data.size(), source, options, scene);
   }

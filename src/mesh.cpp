@@ -8,11 +8,16 @@ namespace osteon {
 
 const char* unit_name(Unit unit) {
   switch (unit) {
-    case Unit::kMillimetre: return "mm";
-    case Unit::kCentimetre: return "cm";
-    case Unit::kMetre: return "m";
-    case Unit::kInch: return "in";
-    case Unit::kUnknown: break;
+    case Unit::kMillimetre:
+      return "mm";
+    case Unit::kCentimetre:
+      return "cm";
+    case Unit::kMetre:
+      return "m";
+    case Unit::kInch:
+      return "in";
+    case Unit::kUnknown:
+      break;
   }
   return "unknown";
 }
@@ -68,8 +73,8 @@ Unit guess_unit(const Scene& scene) {
     Aabb box = bounding_box(part);
     if (box.empty) continue;
     any = true;
-    largest = std::max({largest, box.max.x - box.min.x, box.max.y - box.min.y,
-                        box.max.z - box.min.z});
+    largest =
+        std::max({largest, box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z});
   }
   if (!any) return Unit::kUnknown;
   return largest < 3.0f ? Unit::kMetre : Unit::kMillimetre;

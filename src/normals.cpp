@@ -38,7 +38,8 @@ Octahedral octahedral_encode(double x, double y, double z, int bits) {
     y = oy;
   }
   const double scale = double((1u << bits) - 1);
-  return {uint32_t(std::lround((x * 0.5 + 0.5) * scale)), uint32_t(std::lround((y * 0.5 + 0.5) * scale))};
+  return {uint32_t(std::lround((x * 0.5 + 0.5) * scale)),
+          uint32_t(std::lround((y * 0.5 + 0.5) * scale))};
 }
 
 // The area-weighted normal of every vertex of the quantized surface, octahedrally coded.

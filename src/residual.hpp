@@ -15,9 +15,15 @@ namespace osteon::detail {
 /// Symbols a residual below 2^34 (zigzagged) can take.
 constexpr uint32_t kResidualSymbols = 68;
 
-inline uint64_t zigzag(int64_t r) { return (uint64_t(r) << 1) ^ uint64_t(r >> 63); }
-inline int64_t unzigzag(uint64_t z) { return int64_t(z >> 1) ^ -int64_t(z & 1); }
-inline uint32_t bit_length(uint64_t z) { return z == 0 ? 0 : 64 - uint32_t(__builtin_clzll(z)); }
+inline uint64_t zigzag(int64_t r) {
+  return (uint64_t(r) << 1) ^ uint64_t(r >> 63);
+}
+inline int64_t unzigzag(uint64_t z) {
+  return int64_t(z >> 1) ^ -int64_t(z & 1);
+}
+inline uint32_t bit_length(uint64_t z) {
+  return z == 0 ? 0 : 64 - uint32_t(__builtin_clzll(z));
+}
 
 inline uint32_t residual_symbol(uint64_t z) {
   if (z < 4) return uint32_t(z);

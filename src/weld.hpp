@@ -51,11 +51,14 @@ class ExactWelder {
   static uint64_t hash(const Vec3& p) {
     uint32_t b[3];
     std::memcpy(b, &p, sizeof(b));
-    uint64_t h = (uint64_t{b[0]} * 0x9E3779B97F4A7C15ull) ^ (uint64_t{b[1]} * 0xC2B2AE3D27D4EB4Full) ^
+    uint64_t h = (uint64_t{b[0]} * 0x9E3779B97F4A7C15ull) ^
+                 (uint64_t{b[1]} * 0xC2B2AE3D27D4EB4Full) ^
                  (uint64_t{b[2]} * 0x165667B19E3779F9ull);
     return h ^ (h >> 29);
   }
-  static bool bits_equal(const Vec3& a, const Vec3& b) { return std::memcmp(&a, &b, sizeof(Vec3)) == 0; }
+  static bool bits_equal(const Vec3& a, const Vec3& b) {
+    return std::memcmp(&a, &b, sizeof(Vec3)) == 0;
+  }
   void grow();
 
   std::vector<Vec3>* positions_;

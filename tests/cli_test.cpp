@@ -58,9 +58,9 @@ TEST(Cli, InfoJsonHasTheDocumentedFields) {
   CliRun run = run_cli("info --json " + dir + "/tetra.stl");
   ASSERT_EQ(run.status, 0) << run.err;
   nlohmann::json j = nlohmann::json::parse(run.out);
-  for (const char* key : {"vertices", "triangles", "components", "boundary_edges",
-                          "nonmanifold_edges", "degenerate_triangles", "bbox_min", "bbox_max",
-                          "area", "parts"}) {
+  for (const char* key :
+       {"vertices", "triangles", "components", "boundary_edges", "nonmanifold_edges",
+        "degenerate_triangles", "bbox_min", "bbox_max", "area", "parts"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
   EXPECT_EQ(j["vertices"], 4);

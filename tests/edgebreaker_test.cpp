@@ -53,6 +53,53 @@ Triangles canonical(const std::vector<uint32_t>& indices, const std::vector<uint
   return out;
 }
 
+// The newest triangles are what connectivity.hpp promises, rebuilt the slow way: every triangle
+// under its largest vertex m, with the next two vertices and the vertex across their edge where
+// that edge is manifold (one triangle each way) and the vertex is < m; the neighbour of each
+// vertex from the last triangle in which it is the middle vertex.
+::testing::AssertionResult newest_is_right(const std::vector<uint32_t>& indices,
+                                           const NewestTriangles& newest, uint32_t vertex_count) {
+  std::map<std::pair<uint32_t, uint32_t>, std::pair<uint32_t, uint32_t>> half_edges;
+  for (size_t t = 0; t < indices.size(); t += 3) {
+    for (size_t k = 0; k < 3; ++k) {
+      auto& h = half_edges[{indices[t + (k + 1) % 3], indices[t + (k + 2) % 3]}];
+      ++h.first;
+      h.second = indices[t + k];  // the vertex opposite the half-edge
+    }
+  }
+  std::vector<std::vector<NewestTriangle>> runs(vertex_count);
+  std::vector<uint32_t> neighbour(vertex_count, kNoVertexId);
+  for (size_t t = 0; t < indices.size(); t += 3) {
+    const uint32_t* v = &indices[t];
+    const size_t k = std::max_element(v, v + 3) - v;
+    const uint32_t m = v[k], n = v[(k + 1) % 3], p = v[(k + 2) % 3];
+    const auto twin = half_edges.find({p, n});
+    const bool manifold =
+        half_edges[{n, p}].first == 1 && twin != half_edges.end() && twin->second.first == 1;
+    const uint32_t o = manifold && twin->second.second < m ? twin->second.second : kNoVertexId;
+    runs[m].push_back({n, p, o});
+    neighbour[std::max(n, p)] = std::min(n, p);  // the middle vertex gets the smallest
+  }
+  if (newest.first.size() != size_t{vertex_count} + 1 || newest.neighbour != neighbour) {
+    return ::testing::AssertionFailure() << "offsets or neighbours differ";
+  }
+  for (uint32_t m = 0; m < vertex_count; ++m) {
+    if (newest.first[m + 1] - newest.first[m] != runs[m].size()) {
+      return ::testing::AssertionFailure() << "vertex " << m << ": run length differs";
+    }
+    for (size_t i = 0; i < runs[m].size(); ++i) {
+      const NewestTriangle& got = newest.entries[newest.first[m] + i];
+      const NewestTriangle& want = runs[m][i];
+      if (got.n != want.n || got.p != want.p || got.o != want.o) {
+        return ::testing::AssertionFailure()
+               << "vertex " << m << " entry " << i << ": (" << got.n << ", " << got.p << ", "
+               << got.o << "), want (" << want.n << ", " << want.p << ", " << want.o << ")";
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
 struct RoundTrip {
   bool ok = false;
   size_t bytes = 0;
@@ -72,15 +119,19 @@ RoundTrip round_trip(const std::vector<uint32_t>& indices, uint32_t vertex_count
   const uint32_t triangles = static_cast<uint32_t>(indices.size() / 3);
   ByteReader reader(enc->bytes.data(), enc->bytes.size());
   auto start = std::chrono::steady_clock::now();
-  Result<std::vector<uint32_t>> dec = decode_connectivity(reader, vertex_count, triangles, name);
+  Result<DecodedConnectivity> decoded = decode_connectivity(reader, vertex_count, triangles, name);
   result.decode_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (!dec.ok()) {
-    ADD_FAILURE() << dec.status().message();
+  if (!decoded.ok()) {
+    ADD_FAILURE() << decoded.status().message();
     return result;
   }
+  const std::vector<uint32_t>* dec = &decoded->indices;
   EXPECT_EQ(reader.remaining(), 0u);
   EXPECT_EQ(*dec, enc->decoded_indices);
+  EXPECT_EQ(decoded->newest.first, enc->decoded_newest.first);
+  EXPECT_EQ(decoded->newest.neighbour, enc->decoded_newest.neighbour);
+  EXPECT_TRUE(newest_is_right(*dec, decoded->newest, vertex_count));
   EXPECT_EQ(enc->vertex_order.size(), vertex_count);
   std::vector<uint8_t> seen(vertex_count, 0);
   for (uint32_t v : enc->vertex_order) {
@@ -206,9 +257,10 @@ TEST(Edgebreaker, EmptyMesh) {
   Result<ConnectivityEncoding> enc = encode_connectivity({}, 0);
   ASSERT_TRUE(enc.ok()) << enc.status().message();
   ByteReader reader(enc->bytes.data(), enc->bytes.size());
-  Result<std::vector<uint32_t>> dec = decode_connectivity(reader, 0, 0, "empty");
+  Result<DecodedConnectivity> dec = decode_connectivity(reader, 0, 0, "empty");
   ASSERT_TRUE(dec.ok()) << dec.status().message();
-  EXPECT_TRUE(dec->empty());
+  EXPECT_TRUE(dec->indices.empty());
+  EXPECT_TRUE(dec->newest.entries.empty());
 }
 
 TEST(Edgebreaker, DeterministicAndSelfConsistent) {
@@ -324,13 +376,30 @@ TEST(Edgebreaker, RandomSoups) {
 void expect_valid_or_error(const std::vector<uint8_t>& bytes, uint32_t vertex_count,
                            uint32_t triangle_count) {
   ByteReader reader(bytes.data(), bytes.size());
-  Result<std::vector<uint32_t>> dec =
+  Result<DecodedConnectivity> decoded =
       decode_connectivity(reader, vertex_count, triangle_count, "flip");
-  if (!dec.ok()) {
-    EXPECT_NE(dec.status().message().find("flip"), std::string::npos) << dec.status().message();
+  if (!decoded.ok()) {
+    EXPECT_NE(decoded.status().message().find("flip"), std::string::npos)
+        << decoded.status().message();
     return;
   }
+  const std::vector<uint32_t>* dec = &decoded->indices;
   ASSERT_EQ(dec->size(), 3 * static_cast<size_t>(triangle_count));
+  // What the geometry decoder relies on: every vertex named before the one it is filed under.
+  const NewestTriangles& newest = decoded->newest;
+  ASSERT_EQ(newest.entries.size(), triangle_count);
+  ASSERT_EQ(newest.first.size(), size_t{vertex_count} + 1);
+  ASSERT_EQ(newest.neighbour.size(), vertex_count);
+  EXPECT_EQ(newest.first[0], 0u);
+  for (uint32_t m = 0; m < vertex_count; ++m) {
+    ASSERT_LE(newest.first[m], newest.first[m + 1]);
+    for (uint32_t i = newest.first[m]; i < newest.first[m + 1]; ++i) {
+      const NewestTriangle& e = newest.entries[i];
+      EXPECT_TRUE(e.n < m && e.p < m && (e.o == kNoVertexId || e.o < m));
+    }
+    EXPECT_TRUE(newest.neighbour[m] == kNoVertexId || newest.neighbour[m] < m);
+  }
+  EXPECT_EQ(newest.first[vertex_count], triangle_count);
   std::vector<uint8_t> used(vertex_count, 0);
   for (size_t i = 0; i < dec->size(); i += 3) {
     const uint32_t a = (*dec)[i], b = (*dec)[i + 1], c = (*dec)[i + 2];
@@ -367,7 +436,7 @@ TEST(Edgebreaker, EveryTruncationIsAnError) {
   for (size_t size = 0; size < enc->bytes.size(); ++size) {
     std::vector<uint8_t> cut(enc->bytes.begin(), enc->bytes.begin() + size);
     ByteReader reader(cut.data(), cut.size());
-    Result<std::vector<uint32_t>> dec = decode_connectivity(reader, v, t, "cut.osteon");
+    Result<DecodedConnectivity> dec = decode_connectivity(reader, v, t, "cut.osteon");
     ASSERT_FALSE(dec.ok()) << "a stream cut to " << size << " bytes decoded";
     EXPECT_NE(dec.status().message().find("cut.osteon"), std::string::npos);
   }
@@ -403,7 +472,7 @@ TEST(Edgebreaker, HugeDeclaredCountsAreRejected) {
   // the bytes that remain.
   std::vector<uint8_t> bytes = {0x80, 0x92, 0xf4, 0x01, 1, 3};
   ByteReader r1(bytes.data(), bytes.size());
-  Result<std::vector<uint32_t>> dec = decode_connectivity(r1, 500, 1000, "huge");
+  Result<DecodedConnectivity> dec = decode_connectivity(r1, 500, 1000, "huge");
   ASSERT_FALSE(dec.ok());
   EXPECT_NE(dec.status().message().find("symbols"), std::string::npos) << dec.status().message();
   bytes = {0x9f, 0x1f, 1, 0xf8, 0x55, 0xff, 0xff, 0x03};  // 3999 symbols, 1 component, 11000 ids

@@ -130,7 +130,7 @@ TEST(Entropy, OneSymbolStreamCostsOnlyItsTable) {
   const Coder coder{4, 1};
   const Script script(1000000, Item{false, 0, 3});
   const std::vector<uint8_t> bytes = encode(script, coder);
-  EXPECT_LE(bytes.size(), 16u);
+  EXPECT_LE(bytes.size(), 24u);  // counts, the table and the three rANS states
   EXPECT_TRUE(decodes_to(bytes, script, coder));
 }
 
@@ -236,6 +236,75 @@ TEST(Entropy, InterleavesSymbolsAndRawBitsOfEveryWidth) {
   EXPECT_TRUE(decodes_to(encode(script, coder), script, coder));
 }
 
+// The hot loops' interface: a cursor in a local, three symbols at a time (get3) and up to 56 raw
+// bits at once, read the same stream as get() and get_bits(), for small alphabets (searched by
+// cumulative frequencies) and large ones (buckets), up to the stream's last bytes (the checked
+// slow paths), with absent contexts failing cleanly.
+TEST(Entropy, CursorGet3AndWideBitsReadWhatGetReads) {
+  for (const Coder coder : {Coder{5, 40}, Coder{68, 24}, Coder{4096, 3}}) {
+    SCOPED_TRACE(coder.alphabet);
+    Rng rng(coder.alphabet);
+    Script script;
+    std::vector<uint32_t> widths;  // per group of three symbols: their raw bits, 0..56
+    for (int i = 0; i < 3000; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t context = rng() % coder.contexts;
+        script.push_back({false, context, (rng() % coder.alphabet) / (1 + context % 4)});
+      }
+      const uint32_t width = rng() % 57;
+      widths.push_back(width);
+      const uint64_t bits = (uint64_t{rng()} << 32 | rng()) & ((uint64_t{1} << width) - 1);
+      if (width > 32) {  // put_bits takes at most 32 at a time
+        script.push_back({true, 32, static_cast<uint32_t>(bits)});
+        script.push_back({true, width - 32, static_cast<uint32_t>(bits >> 32)});
+      } else {
+        script.push_back({true, width, static_cast<uint32_t>(bits)});
+      }
+    }
+    const std::vector<uint8_t> bytes = encode(script, coder);
+    ASSERT_TRUE(decodes_to(bytes, script, coder));
+    ByteReader in(bytes.data(), bytes.size());
+    SymbolDecoder dec;
+    ASSERT_TRUE(dec.init(in, coder.alphabet, coder.contexts, "test", "symbols").ok());
+    SymbolDecoder::Cursor cursor = dec.cursor();
+    size_t item = 0;
+    for (uint32_t width : widths) {
+      uint32_t context[3], symbol[3];
+      for (int k = 0; k < 3; ++k) context[k] = script[item + k].a;
+      dec.get3(cursor, context, symbol);
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(symbol[k], script[item + k].value) << item + k;
+      item += 3;
+      uint64_t want = script[item].value;
+      if (width > 32) want |= uint64_t{script[++item].value} << 32;
+      ++item;
+      ASSERT_EQ(dec.get_bits(cursor, static_cast<int>(width)), want) << item;
+    }
+    ASSERT_TRUE(cursor.ok);
+    dec.resume(cursor);
+    EXPECT_TRUE(dec.finish("test", "symbols").ok());
+    // One more symbol, past the end: fails cleanly, through get3 too.
+    cursor = dec.cursor();
+    uint32_t context[3] = {0, 0, 0}, symbol[3];
+    dec.get3(cursor, context, symbol);
+    EXPECT_FALSE(cursor.ok);
+  }
+}
+
+TEST(Entropy, Get3FailsCleanlyOnAnAbsentContext) {
+  const Coder coder{68, 4};
+  Script script;
+  for (int i = 0; i < 30; ++i) script.push_back({false, static_cast<uint32_t>(i % 2), 7});
+  const std::vector<uint8_t> bytes = encode(script, coder);
+  ByteReader in(bytes.data(), bytes.size());
+  SymbolDecoder dec;
+  ASSERT_TRUE(dec.init(in, coder.alphabet, coder.contexts, "test", "symbols").ok());
+  SymbolDecoder::Cursor cursor = dec.cursor();
+  const uint32_t context[3] = {0, 3, 1};  // context 3 never occurs
+  uint32_t symbol[3];
+  dec.get3(cursor, context, symbol);
+  EXPECT_FALSE(cursor.ok);
+}
+
 TEST(Entropy, CompressesWithinOnePercentOfTheEntropy) {
   const Coder coder{2, 1};
   Rng rng(23);
@@ -249,7 +318,7 @@ TEST(Entropy, CompressesWithinOnePercentOfTheEntropy) {
   }
   const std::vector<uint8_t> bytes = encode(script, coder);
   const double entropy = entropy_bits(counts);
-  const double overhead = 8 * 16;  // varints, table, the rANS state
+  const double overhead = 8 * 24;  // varints, table, the three rANS states
   std::printf("[          ] p = 0.9/0.1, 100k symbols: %zu bytes, entropy %.0f bytes (%+.3f%%)\n",
               bytes.size(), entropy / 8, 100 * (8 * bytes.size() / entropy - 1));
   EXPECT_LE(8.0 * bytes.size(), 1.01 * entropy + overhead);
@@ -531,9 +600,10 @@ TEST(Entropy, HugeDeclaredCountsFailFast) {
   EXPECT_FALSE(status.ok());
   EXPECT_NE(status.message().find("raw bits declared"), std::string::npos) << status.message();
 
-  // 4e9 symbols in 4 rANS bytes, every context with two symbols (each symbol costs bits).
+  // 4e9 symbols in 12 rANS bytes (the three states), every context with two symbols (each
+  // symbol costs bits).
   const uint64_t n = 4000000000u;
-  const std::vector<uint8_t> state = {0, 0, 0x80, 0};  // 2^23
+  const std::vector<uint8_t> state = {0, 0, 0x80, 0, 0, 0, 0x80, 0, 0, 0, 0x80, 0};  // 3 x 2^23
   TableBits t;
   t.gamma(1);   // one context
   t.gamma(1);   // context 0
@@ -545,9 +615,9 @@ TEST(Entropy, HugeDeclaredCountsFailFast) {
   t.gamma(1);   // Golomb order 0
   t.gamma(1);   // weight 1 (stored - 1, order 0: gamma(weight))
   t.gamma(1);   // weight 1
-  status = init_on(concat({varint(n), varint(0), t.bytes, varint(4), state}), &dec);
+  status = init_on(concat({varint(n), varint(0), t.bytes, varint(12), state}), &dec);
   EXPECT_FALSE(status.ok());
-  EXPECT_NE(status.message().find("cannot fit in 4 rANS bytes"), std::string::npos)
+  EXPECT_NE(status.message().find("cannot fit in 12 rANS bytes"), std::string::npos)
       << status.message();
 
   // The same count in a one-symbol context is legitimate (such symbols cost nothing): the caller
@@ -559,7 +629,7 @@ TEST(Entropy, HugeDeclaredCountsFailFast) {
   one.put(1, 1);
   one.gamma(1);  // one symbol
   one.gamma(3);  // symbol 2 (no weight for a lone symbol)
-  ASSERT_TRUE(init_on(concat({varint(n), varint(0), one.bytes, varint(4), state}), &dec).ok());
+  ASSERT_TRUE(init_on(concat({varint(n), varint(0), one.bytes, varint(12), state}), &dec).ok());
   EXPECT_EQ(dec.symbols_left(), n);
   EXPECT_EQ(dec.get(0), 2u);
   EXPECT_EQ(dec.get(1), 0u);  // context 1 is absent
@@ -568,7 +638,7 @@ TEST(Entropy, HugeDeclaredCountsFailFast) {
 
 TEST(Entropy, InconsistentTablesAreRejected) {
   SymbolDecoder dec;
-  const std::vector<uint8_t> state = {0, 0, 0x80, 0};
+  const std::vector<uint8_t> state = {0, 0, 0x80, 0, 0, 0, 0x80, 0, 0, 0, 0x80, 0};
   // One context holding one symbol (sparse), then `extra` bits.
   auto lone = [](uint64_t context_gap, uint64_t symbol_gap, int extra = 0) {
     TableBits t;
@@ -602,32 +672,35 @@ TEST(Entropy, InconsistentTablesAreRejected) {
     return ::testing::AssertionSuccess();
   };
   const Coder coder{4, 2};
-  EXPECT_TRUE(decodes_to(concat({varint(5), varint(0), lone(1, 1), varint(4), state}),
+  EXPECT_TRUE(decodes_to(concat({varint(5), varint(0), lone(1, 1), varint(12), state}),
                          Script(5, Item{false, 0, 0}), coder));
-  EXPECT_TRUE(decodes_to(concat({varint(5), varint(0), dense({0, 0, 7}), varint(4), state}),
+  EXPECT_TRUE(decodes_to(concat({varint(5), varint(0), dense({0, 0, 7}), varint(12), state}),
                          Script(5, Item{false, 0, 2}), coder));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(3, 1), varint(4), state}),
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(3, 1), varint(12), state}),
                             "context 2 out of range"));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(1, 5), varint(4), state}),
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(1, 5), varint(12), state}),
                             "symbol 4 out of range in context 0"));
   EXPECT_TRUE(
-      rejected_with(concat({varint(5), varint(0), dense({1, 1, 1, 1, 1}), varint(4), state}),
+      rejected_with(concat({varint(5), varint(0), dense({1, 1, 1, 1, 1}), varint(12), state}),
                     "5 symbols in context 0, alphabet 4"));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), dense({0, 0}), varint(4), state}),
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), dense({0, 0}), varint(12), state}),
                             "no symbols in context 0"));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), dense({1}, 33), varint(4), state}),
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), dense({1}, 33), varint(12), state}),
                             "bad weight code 32"));
   EXPECT_TRUE(
-      rejected_with(concat({varint(5), varint(0), dense({uint64_t{1} << 32}), varint(4), state}),
+      rejected_with(concat({varint(5), varint(0), dense({uint64_t{1} << 32}), varint(12), state}),
                     "weight out of range in context 0"));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(1, 1, 1), varint(4), state}),
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(1, 1, 1), varint(12), state}),
                             "nonzero padding after the frequency tables"));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(1, 1), varint(3), state}),
-                            "3 rANS bytes declared"));
-  EXPECT_TRUE(
-      rejected_with(concat({varint(5), varint(0), lone(1, 1), varint(4), {0xff, 0xff, 0x7f, 0}}),
-                    "initial rANS state out of range"));
-  EXPECT_TRUE(rejected_with(concat({varint(5), varint(3), lone(1, 1), varint(4), state, {8}}),
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(0), lone(1, 1), varint(11), state}),
+                            "11 rANS bytes declared"));
+  EXPECT_TRUE(rejected_with(concat({varint(5),
+                                    varint(0),
+                                    lone(1, 1),
+                                    varint(12),
+                                    {0, 0, 0x80, 0, 0xff, 0xff, 0x7f, 0, 0, 0, 0x80, 0}}),
+                            "initial rANS state out of range"));
+  EXPECT_TRUE(rejected_with(concat({varint(5), varint(3), lone(1, 1), varint(12), state, {8}}),
                             "nonzero padding after the raw bits"));
   // Context 1 shares context 0's table; then a context naming a table not yet defined.
   TableBits shared;
@@ -645,7 +718,7 @@ TEST(Entropy, InconsistentTablesAreRejected) {
   shared.gamma(2);  // table 0
   ASSERT_TRUE(init_on(concat({varint(0), varint(0)}), &dec).ok());
   Status status =
-      init_on(concat({varint(3), varint(0), shared.bytes, varint(5), state, {0}}), &dec);
+      init_on(concat({varint(3), varint(0), shared.bytes, varint(13), state, {0}}), &dec);
   EXPECT_TRUE(status.ok()) << status.message();
   TableBits dangling;
   dangling.gamma(1);

@@ -3,10 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <unistd.h>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -29,9 +29,8 @@ std::string scratch_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
   std::replace(name.begin(), name.end(), '/', '_');
-  fs::path dir = fs::temp_directory_path() /
-                 ("osteon_test_" + std::to_string(::getpid()) + "_" +
-                  std::to_string(counter++) + "_" + name);
+  fs::path dir = fs::temp_directory_path() / ("osteon_test_" + std::to_string(::getpid()) + "_" +
+                                              std::to_string(counter++) + "_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir.string();

@@ -137,7 +137,8 @@ TEST(IoStl, HugeDeclaredCountIsRejectedBeforeAllocating) {
 }
 
 TEST(IoStl, NonFiniteCoordinatesAreRejectedWithTheirPosition) {
-  for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+  for (float bad :
+       {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
     Mesh tet = tetrahedron();
     tet.positions[3].y = bad;  // vertex 3 appears first in triangle 1, corner 2
     std::string error = test::parse_error(binary_stl(tet), "nan.stl");

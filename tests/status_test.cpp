@@ -7,7 +7,8 @@ namespace osteon {
 namespace {
 
 Result<int> half(int x) {
-  if (x % 2 != 0) return error(ErrorCode::kInvalidArgument, "half", "odd", "value " + std::to_string(x));
+  if (x % 2 != 0)
+    return error(ErrorCode::kInvalidArgument, "half", "odd", "value " + std::to_string(x));
   return x / 2;
 }
 

@@ -70,8 +70,7 @@ Result<std::vector<uint8_t>> encode(const Mesh& mesh, const EncodeOptions& optio
 /// the bytes that remain before allocation; truncation, bad magic or version, a checksum mismatch
 /// and inconsistent connectivity are errors naming the section and byte offset. Normals are
 /// computed (area-weighted) unless the stream carries them. `source` names the stream in messages.
-Result<Mesh> decode(const uint8_t* data, size_t size,
-                    const std::string& source = "osteon stream");
+Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source = "osteon stream");
 
 /// Area-weighted smooth vertex normals (unit length; zero for vertices of zero-area fans).
 std::vector<Vec3> compute_vertex_normals(const Mesh& mesh);

@@ -14,7 +14,7 @@ namespace osteon {
 
 /// Topology and measures of one connected component (triangles connected through shared vertices).
 struct ComponentReport {
-  size_t vertices = 0;   ///< vertices referenced by the component's triangles
+  size_t vertices = 0;  ///< vertices referenced by the component's triangles
   size_t triangles = 0;
   size_t edges = 0;
   size_t boundary_edges = 0;     ///< edges used by exactly one triangle
@@ -51,9 +51,9 @@ struct DiagnosisReport {
   /// non-manifold edge.
   size_t nonmanifold_vertices = 0;
   size_t inconsistent_edges = 0;
-  long euler = 0;  ///< V - E + F over all positions (unreferenced ones count as isolated vertices)
+  long euler = 0;   ///< V - E + F over all positions (unreferenced ones count as isolated vertices)
   long genus = -1;  ///< sum over components when every component has one, else -1
-  bool closed = false;  ///< no boundary and no non-manifold edge; an empty mesh is not closed
+  bool closed = false;    ///< no boundary and no non-manifold edge; an empty mesh is not closed
   bool oriented = false;  ///< closed, and no inconsistent edge
   Aabb bbox;
   double area = 0;

@@ -16,7 +16,8 @@ struct Vec3 {
   friend bool operator==(const Vec3&, const Vec3&) = default;
 };
 
-/// The length unit a mesh's coordinates are in. Most mesh formats do not say; see Mesh::unit_source.
+/// The length unit a mesh's coordinates are in. Most mesh formats do not say; see
+/// Mesh::unit_source.
 enum class Unit { kUnknown, kMillimetre, kCentimetre, kMetre, kInch };
 
 /// Where Mesh::unit came from.
@@ -62,7 +63,8 @@ struct Aabb {
   Vec3 max{0, 0, 0};
   bool empty = true;
 };
-/// The bounding box of the positions that triangles reference (all positions when `indices` is empty).
+/// The bounding box of the positions that triangles reference (all positions when `indices` is
+/// empty).
 Aabb bounding_box(const Mesh& mesh);
 
 // ---------------------------------------------------------------------------------------------

@@ -47,7 +47,7 @@ Status error(ErrorCode code, const std::string& file, const std::string& what,
 template <class T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : data_(std::move(value)) {}  // NOLINT: implicit by design
+  Result(T value) : data_(std::move(value)) {}         // NOLINT: implicit by design
   Result(Status status) : data_(std::move(status)) {}  // NOLINT: implicit by design
 
   bool ok() const { return std::holds_alternative<T>(data_); }
@@ -72,10 +72,10 @@ class [[nodiscard]] Result {
 #define OSTEON_CONCAT(a, b) OSTEON_CONCAT_IMPL(a, b)
 
 /// Returns the Status of `expr` from the enclosing function when it is not ok.
-#define OSTEON_RETURN_IF_ERROR(expr)                  \
-  do {                                                \
-    ::osteon::Status osteon_status_ = (expr);         \
-    if (!osteon_status_.ok()) return osteon_status_;  \
+#define OSTEON_RETURN_IF_ERROR(expr)                 \
+  do {                                               \
+    ::osteon::Status osteon_status_ = (expr);        \
+    if (!osteon_status_.ok()) return osteon_status_; \
   } while (0)
 
 /// `OSTEON_ASSIGN_OR_RETURN(auto x, f())`: declares x from the Result of f() or returns its error.

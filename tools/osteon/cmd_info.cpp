@@ -28,7 +28,9 @@ struct InfoArgs {
   std::string unit;
 };
 
-nlohmann::json vec_json(const Vec3& v) { return {v.x, v.y, v.z}; }
+nlohmann::json vec_json(const Vec3& v) {
+  return {v.x, v.y, v.z};
+}
 
 nlohmann::json component_json(const ComponentReport& c) {
   return {{"vertices", c.vertices},
@@ -164,7 +166,8 @@ int run_info(const InfoArgs& args) {
     out["unit_guessed"] = first.unit_source == UnitSource::kGuessed;
     out["parts"] = nlohmann::json::array();
     for (const PartInfo& p : parts) {
-      nlohmann::json j = {{"name", p.mesh->name}, {"source", p.mesh->source},
+      nlohmann::json j = {{"name", p.mesh->name},
+                          {"source", p.mesh->source},
                           {"format", format_name(format_from_extension(p.mesh->source))}};
       j.update(report_json(p.report, p.mesh->stored_vertices, p.degenerate_removed));
       if (args.components) {
@@ -211,7 +214,8 @@ void register_info(CLI::App& app, std::function<int()>* run) {
   auto args = std::make_shared<InfoArgs>();
   CLI::App* cmd = app.add_subcommand(
       "info", "Read meshes (files or folders of parts) and report their topology and size");
-  cmd->add_option("PATH", args->paths, "Mesh files (.stl .obj .ply .off .vtk .gltf .glb) or folders")
+  cmd->add_option("PATH", args->paths,
+                  "Mesh files (.stl .obj .ply .off .vtk .gltf .glb) or folders")
       ->required();
   cmd->add_flag("--json", args->json, "Print JSON (per part and in total) instead of a table");
   cmd->add_flag("--no-weld", args->no_weld,

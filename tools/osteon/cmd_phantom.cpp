@@ -24,14 +24,22 @@ struct PhantomArgs {
 
 const char* kind_name(PhantomKind kind) {
   switch (kind) {
-    case PhantomKind::kOriginal: return "original";
-    case PhantomKind::kExactCopy: return "exact_copy";
-    case PhantomKind::kRotatedCopy: return "rotated_copy";
-    case PhantomKind::kMirroredCopy: return "mirrored_copy";
-    case PhantomKind::kNoisyCopy: return "noisy_copy";
-    case PhantomKind::kWithHoles: return "with_holes";
-    case PhantomKind::kGenusOne: return "genus_one";
-    case PhantomKind::kNonManifold: return "nonmanifold";
+    case PhantomKind::kOriginal:
+      return "original";
+    case PhantomKind::kExactCopy:
+      return "exact_copy";
+    case PhantomKind::kRotatedCopy:
+      return "rotated_copy";
+    case PhantomKind::kMirroredCopy:
+      return "mirrored_copy";
+    case PhantomKind::kNoisyCopy:
+      return "noisy_copy";
+    case PhantomKind::kWithHoles:
+      return "with_holes";
+    case PhantomKind::kGenusOne:
+      return "genus_one";
+    case PhantomKind::kNonManifold:
+      return "nonmanifold";
   }
   return "unknown";
 }
@@ -91,8 +99,9 @@ void register_phantom(CLI::App& app, std::function<int()>* run) {
   cmd->add_option("-o,--output", args->out_dir, "Folder to write the parts and truth.json into")
       ->required();
   cmd->add_option("--seed", args->seed, "Random seed (same seed, same bytes)");
-  cmd->add_option("--detail", args->detail, "Subdivision level 1..6 (3: a few thousand triangles "
-                                            "a bone)");
+  cmd->add_option("--detail", args->detail,
+                  "Subdivision level 1..6 (3: a few thousand triangles "
+                  "a bone)");
   cmd->add_option("--format", args->format, "File format of the parts: stl, ply or obj");
   cmd->callback([args, run] { *run = [args] { return run_phantom(*args); }; });
 }

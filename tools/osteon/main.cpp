@@ -12,14 +12,18 @@
 
 namespace osteon::cli {
 
-int fail(const Status& status) { return fail(status.message()); }
+int fail(const Status& status) {
+  return fail(status.message());
+}
 
 int fail(const std::string& message) {
   std::fprintf(stderr, "osteon: error: %s\n", message.c_str());
   return kExitError;
 }
 
-bool stderr_is_tty() { return isatty(STDERR_FILENO) != 0; }
+bool stderr_is_tty() {
+  return isatty(STDERR_FILENO) != 0;
+}
 
 }  // namespace osteon::cli
 
