@@ -39,16 +39,6 @@ std::string parse_message(const std::string& text) {
   return parse(text, &scene).message();
 }
 
-/// The whole file, read in one block (test::read_bytes goes byte by byte: slow in Debug builds).
-std::vector<uint8_t> load_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) return {};
-  std::vector<uint8_t> bytes(static_cast<size_t>(in.tellg()));
-  in.seekg(0);
-  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  return bytes;
-}
-
 // A unit cube: 8 vertices, 6 quads.
 const char* const kCube =
     "OFF\n"
@@ -258,7 +248,7 @@ TEST(IoOff, SegmentationBenchmarkMatchesStats) {
     SCOPED_TRACE(relative);
     ASSERT_EQ(stats.count(relative), 1u);
     const auto& row = stats[relative];
-    std::vector<uint8_t> bytes = load_file(file.string());
+    std::vector<uint8_t> bytes = test::read_bytes(file.string());
     Scene scene;
     Status status = parse_off(bytes.data(), bytes.size(), file.string(), {}, &scene);
     ASSERT_TRUE(status.ok()) << status.message();

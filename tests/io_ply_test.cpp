@@ -53,16 +53,6 @@ void put(std::string& out, T value, std::endian order = std::endian::little) {
   out.append(bytes, sizeof(T));
 }
 
-/// The whole file, read in one block (test::read_bytes goes byte by byte: slow in Debug builds).
-std::vector<uint8_t> load_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) return {};
-  std::vector<uint8_t> bytes(static_cast<size_t>(in.tellg()));
-  in.seekg(0);
-  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  return bytes;
-}
-
 const std::vector<Vec3> kSquare = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
 
 /// Binary little-endian: float x y z, uchar-counted int lists: the fast path.
@@ -491,7 +481,7 @@ TEST(IoPly, CtLikeFilesMatchTheirHeaders) {
   for (const Expected& e :
        {Expected{"hip_mcs.ply", 529962, 1059928}, Expected{"skull_mc.ply", 749621, 1499782}}) {
     std::string path = data + "/ct-like/" + e.file;
-    std::vector<uint8_t> bytes = load_file(path);
+    std::vector<uint8_t> bytes = test::read_bytes(path);
     ASSERT_FALSE(bytes.empty()) << path;
     Scene scene;
     Status status = parse_ply(bytes.data(), bytes.size(), path, {}, &scene);
