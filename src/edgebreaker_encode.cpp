@@ -286,7 +286,8 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   // The symbols under each context model the encoder tries; the smallest section wins.
   std::vector<uint8_t> best, section;
   uint32_t best_model = 0;
-  for (uint32_t model = 0; model < kEncoderContextModels; ++model) {
+  const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
+  for (uint32_t model = 0; model < models; ++model) {
     SymbolContext context(kContextModels[model]);
     SymbolEncoder coder(kSymbolCount, context.contexts());
     for (uint32_t k = 0; k < n; ++k) {

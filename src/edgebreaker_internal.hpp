@@ -247,10 +247,13 @@ inline constexpr ContextModel kContextModels[] = {
 };
 inline constexpr uint32_t kContextModelCount =
     static_cast<uint32_t>(sizeof(kContextModels) / sizeof(kContextModels[0]));
-/// The models the encoder tries: all of them. (The entropy decoder's tables for this 5-symbol
-/// alphabet are 16 bytes a context, so the large models 4 and 5, which save 2-3% of the section
-/// on large meshes, decode as fast as the small ones.)
-inline constexpr uint32_t kEncoderContextModels = kContextModelCount;
+/// The models the encoder tries: the first four always, and the large models 4 and 5 (1600 and
+/// 4000 contexts) from kLargeModelSymbols symbols on, where they can win (2-3% of the section on
+/// million-triangle bones; never on the small meshes, whose encoding their table merging would
+/// slow down several times). The entropy decoder's tables for this 5-symbol alphabet are 16 bytes
+/// a context, so the large models decode as fast as the small ones.
+inline constexpr uint32_t kEncoderContextModels = 4;
+inline constexpr uint32_t kLargeModelSymbols = 200000;
 
 /// Tracks the features and turns them into a context id for one model.
 class SymbolContext {
