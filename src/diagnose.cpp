@@ -125,16 +125,6 @@ inline uint32_t next_corner(uint32_t c) {
   return c % 3 == 2 ? c - 2 : c + 1;
 }
 
-void grow_box(Aabb& box, const Vec3& p) {
-  if (box.empty) {
-    box.min = box.max = p;
-    box.empty = false;
-    return;
-  }
-  box.min = {std::min(box.min.x, p.x), std::min(box.min.y, p.y), std::min(box.min.z, p.z)};
-  box.max = {std::max(box.max.x, p.x), std::max(box.max.y, p.y), std::max(box.max.z, p.z)};
-}
-
 }  // namespace
 
 DiagnosisReport diagnose(const Mesh& mesh) {
@@ -260,7 +250,7 @@ DiagnosisReport diagnose(const Mesh& mesh) {
     }
     ComponentReport& comp = comps[vertex_component[v]];
     ++comp.vertices;
-    grow_box(comp.bbox, mesh.positions[v]);
+    expand(comp.bbox, mesh.positions[v]);
     if (fan_count[v] > 1 || on_nonmanifold_edge[v]) ++comp.nonmanifold_vertices;
   }
 

@@ -41,25 +41,32 @@ bool parse_unit(const std::string& text, Unit* unit) {
   return true;
 }
 
+void expand(Aabb& box, const Vec3& p) {
+  if (box.empty) {
+    box.min = box.max = p;
+    box.empty = false;
+    return;
+  }
+  box.min = {std::min(box.min.x, p.x), std::min(box.min.y, p.y), std::min(box.min.z, p.z)};
+  box.max = {std::max(box.max.x, p.x), std::max(box.max.y, p.y), std::max(box.max.z, p.z)};
+}
+
+void expand(Aabb& box, const Aabb& other) {
+  if (other.empty) return;
+  expand(box, other.min);
+  expand(box, other.max);
+}
+
 Aabb bounding_box(const Mesh& mesh) {
   Aabb box;
-  auto add = [&box](const Vec3& p) {
-    if (box.empty) {
-      box.min = box.max = p;
-      box.empty = false;
-      return;
-    }
-    box.min = {std::min(box.min.x, p.x), std::min(box.min.y, p.y), std::min(box.min.z, p.z)};
-    box.max = {std::max(box.max.x, p.x), std::max(box.max.y, p.y), std::max(box.max.z, p.z)};
-  };
   if (mesh.indices.empty()) {
-    for (const Vec3& p : mesh.positions) add(p);
+    for (const Vec3& p : mesh.positions) expand(box, p);
   } else {
     std::vector<bool> seen(mesh.positions.size(), false);
     for (uint32_t i : mesh.indices) {
       if (i < seen.size() && !seen[i]) {
         seen[i] = true;
-        add(mesh.positions[i]);
+        expand(box, mesh.positions[i]);
       }
     }
   }

@@ -43,5 +43,19 @@ TEST(Mesh, BoundingBoxCoversReferencedVertices) {
   EXPECT_TRUE(bounding_box(Mesh{}).empty);
 }
 
+TEST(Mesh, ExpandGrowsBoxesByPointsAndBoxes) {
+  Aabb box;
+  expand(box, Aabb{});
+  EXPECT_TRUE(box.empty);
+  expand(box, Vec3{1, 2, 3});
+  EXPECT_FALSE(box.empty);
+  EXPECT_EQ(box.min, (Vec3{1, 2, 3}));
+  Aabb other;
+  expand(other, Vec3{-1, 5, 0});
+  expand(box, other);
+  EXPECT_EQ(box.min, (Vec3{-1, 2, 0}));
+  EXPECT_EQ(box.max, (Vec3{1, 5, 3}));
+}
+
 }  // namespace
 }  // namespace osteon

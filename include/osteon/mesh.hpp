@@ -63,6 +63,10 @@ struct Aabb {
   Vec3 max{0, 0, 0};
   bool empty = true;
 };
+/// Grows `box` to hold `p` (an empty box becomes the point).
+void expand(Aabb& box, const Vec3& p);
+/// Grows `box` to hold `other` (an empty `other` changes nothing).
+void expand(Aabb& box, const Aabb& other);
 /// The bounding box of the positions that triangles reference (all positions when `indices` is
 /// empty).
 Aabb bounding_box(const Mesh& mesh);

@@ -112,15 +112,7 @@ DiagnosisReport total_of(const std::vector<PartInfo>& parts, size_t* stored, siz
     t.oriented = t.oriented && r.oriented;
     t.area += r.area;
     t.volume += r.volume;
-    if (r.bbox.empty) continue;
-    if (t.bbox.empty) {
-      t.bbox = r.bbox;
-    } else {
-      t.bbox.min = {std::min(t.bbox.min.x, r.bbox.min.x), std::min(t.bbox.min.y, r.bbox.min.y),
-                    std::min(t.bbox.min.z, r.bbox.min.z)};
-      t.bbox.max = {std::max(t.bbox.max.x, r.bbox.max.x), std::max(t.bbox.max.y, r.bbox.max.y),
-                    std::max(t.bbox.max.z, r.bbox.max.z)};
-    }
+    expand(t.bbox, r.bbox);
   }
   return t;
 }
