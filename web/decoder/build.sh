@@ -67,7 +67,18 @@ printf '%s\n' "${sources[@]}" | xargs -P "$jobs" -I{} sh -c \
 objects=()
 for s in "${sources[@]}"; do objects+=("$out/obj/$(basename "$s" .cpp).o"); done
 em++ "${objects[@]}" "${ldflags[@]}" -o "$out/osteon_decoder.wasm"
-cp web/decoder/osteon_decoder.mjs web/decoder/worker.mjs web/decoder/pool.mjs "$out/"
+# The JavaScript modules, minified by esbuild (web/package.json; npm ci in web/) the way they ship:
+# each stays its own ES module, imports untouched. Without esbuild they are copied as written.
+esbuild="$root/web/node_modules/.bin/esbuild"
+for js in osteon_decoder.mjs worker.mjs pool.mjs; do
+  if [ -x "$esbuild" ]; then
+    "$esbuild" "web/decoder/$js" --minify --format=esm --target=es2022 --log-level=warning \
+      --outfile="$out/$js"
+  else
+    cp "web/decoder/$js" "$out/"
+  fi
+done
+[ -x "$esbuild" ] || echo "osteon: esbuild not installed (cd web && npm ci): the wrapper is not minified"
 
 # The wrapper supplies exactly these imports; a new one (a libc call reaching for the console or
 # the clock) would fail at instantiation, so fail here instead.

@@ -12,7 +12,7 @@
 
 import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, readdirSync, readFileSync, rmSync } from 'node:fs';
+import { existsSync, mkdtempSync, readdirSync, readFileSync, rmSync, statSync } from 'node:fs';
 import { createServer } from 'node:http';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
@@ -28,10 +28,10 @@ const dataDir = path.resolve(process.env.OSTEON_SHARED_DATA ?? path.join(repo, '
 const cli = process.env.OSTEON_CLI ??
   [path.join(repo, 'build', 'release', 'osteon'), path.join(repo, 'build', 'osteon')].find(existsSync);
 // Issue 3 targets 25,000 bytes (WASM plus wrapper, gzip -9); bench/codec_bench reports whether the
-// target is met. Transmitted-normal decoding and the faster decode paths took the download to
-// 26.8 KB, so this test guards against regressions beyond that while the size is worked down.
+// target is met. With the wrapper minified by esbuild the download is 25.8 KB (the WASM alone is
+// 24.8 KB), so this test guards against regressions beyond that while the size is worked down.
 const kTargetBytes = 25000;
-const kBudgetBytes = 28000;
+const kBudgetBytes = 26500;
 
 // A few real meshes with what the phantom lacks: non-manifold edges, inconsistent orientation,
 // many components, holes, every reader. The ct-like ones are also timed.
@@ -142,7 +142,8 @@ before(async () => {
   assert.ok(existsSync(path.join(wasmDir, 'osteon_decoder.wasm')),
     `${wasmDir}/osteon_decoder.wasm is missing: run \`npm run build:decoder\` in web/`);
   for (const file of ['osteon_decoder.mjs', 'worker.mjs', 'pool.mjs']) {
-    assert.ok(readFileSync(path.join(wasmDir, file)).equals(readFileSync(path.join(here, '..', file))),
+    // build.sh minifies the modules: the built copy must be at least as new as its source.
+    assert.ok(statSync(path.join(wasmDir, file)).mtimeMs >= statSync(path.join(here, '..', file)).mtimeMs,
       `${wasmDir}/${file} is older than web/decoder/${file}: run \`npm run build:decoder\``);
   }
   assert.ok(cli && existsSync(cli),
