@@ -21,6 +21,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench_markdown.hpp"
 #include "codec_peers.hpp"
 #include "osteon/codec.hpp"
 #include "osteon/diagnose.hpp"
@@ -324,18 +325,6 @@ void merge_wasm(const WasmRun& run, std::vector<Row>& rows) {
 }
 
 // ---- the report ----------------------------------------------------------------------------
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      size_t colon = line.find(':');
-      return colon == std::string::npos ? line : line.substr(colon + 2);
-    }
-  }
-  return "unknown CPU";
-}
 
 std::string fixed(double value, int decimals) {
   char text[64];
@@ -804,28 +793,6 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
   return report;
 }
 
-/// Replaces (or appends) the section headed `heading` in the Markdown file at `path`.
-bool write_section(const fs::path& path, const std::string& heading, const std::string& body) {
-  std::string text;
-  {
-    std::ifstream in(path);
-    if (in) text.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  if (text.empty())
-    text = "# Benchmarks\n\nProduced by the programs in bench/; see bench/README.md.\n";
-  std::string section = heading + "\n\n" + body;
-  size_t start = text.find(heading + "\n");
-  if (start == std::string::npos) {
-    if (!text.empty() && text.back() != '\n') text += "\n";
-    text += "\n" + section;
-  } else {
-    size_t end = text.find("\n## ", start + heading.size());
-    text.replace(start, end == std::string::npos ? std::string::npos : end + 1 - start,
-                 end == std::string::npos ? section : section + "\n");
-  }
-  return osteon::write_file_atomic(path.string(), text.data(), text.size()).ok();
-}
-
 std::string safe_name(std::string name) {
   for (char& c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
@@ -1009,7 +976,7 @@ int main(int argc, char** argv) {
             "includes computing smooth vertex normals; Draco's and meshopt's compute none. KB are "
             "1024 bytes; bpv is bits per vertex; max err the largest per-coordinate |decoded - "
             "input|, in mesh units. See bench/README.md.\n\n"
-         << "Machine: " << cpu_model() << ", " << sysconf(_SC_NPROCESSORS_ONLN)
+         << "Machine: " << osteon_bench::cpu_model() << ", " << sysconf(_SC_NPROCESSORS_ONLN)
          << " cores (shared). " << node_line << "Date: " << date
          << ". Commands (from the repository root; the encoder and the WASM decoder built from the "
             "same tree):\n\n"
@@ -1020,7 +987,7 @@ int main(int argc, char** argv) {
             "codec_bench\n"
          << command << "\n```\n\n"
          << report.markdown;
-    if (!write_section(write_path, "## Mesh codec (issue 3)", body.str())) {
+    if (!osteon_bench::write_section(write_path, "## Mesh codec (issue 3)", body.str())) {
       std::fprintf(stderr, "codec_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

@@ -23,6 +23,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench_markdown.hpp"
 #include "osteon/io.hpp"
 
 // Reading and welding throughput, osteon against Assimp, on the real meshes of ../shared/data.
@@ -302,18 +303,6 @@ std::vector<Input> find_inputs(const fs::path& data, const fs::path& scratch) {
 
 // ---- the report ----------------------------------------------------------------------------
 
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      size_t colon = line.find(':');
-      return colon == std::string::npos ? line : line.substr(colon + 2);
-    }
-  }
-  return "unknown CPU";
-}
-
 std::string format_number(double value, int decimals) {
   char text[64];
   std::snprintf(text, sizeof(text), "%.*f", decimals, value);
@@ -369,29 +358,6 @@ std::string markdown(const std::vector<Row>& rows, double floor_mb) {
   md << "\nFloor: a child that reads nothing peaks at " << format_number(floor_mb, 1)
      << " MB RSS; every peak above includes it.\n";
   return md.str();
-}
-
-/// Replaces (or appends) the section headed `heading` in the Markdown file at `path`.
-bool write_section(const fs::path& path, const std::string& heading, const std::string& body) {
-  std::string text;
-  {
-    std::ifstream in(path);
-    if (in) text.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  if (text.empty())
-    text = "# Benchmarks\n\nProduced by the programs in bench/; see bench/README.md.\n";
-  std::string section = heading + "\n\n" + body;
-  size_t start = text.find(heading + "\n");
-  if (start == std::string::npos) {
-    if (!text.empty() && text.back() != '\n') text += "\n";
-    text += "\n" + section;
-  } else {
-    size_t end = text.find("\n## ", start + heading.size());
-    text.replace(start, end == std::string::npos ? std::string::npos : end + 1 - start,
-                 end == std::string::npos ? section : section + "\n");
-  }
-  fs::create_directories(path.parent_path().empty() ? fs::path(".") : path.parent_path());
-  return osteon::write_file_atomic(path.string(), text.data(), text.size()).ok();
 }
 
 }  // namespace
@@ -463,14 +429,14 @@ int main(int argc, char** argv) {
             "mesh is 12 bytes a vertex + 12 bytes a triangle.\n\n"
          << "Targets (issue 2): at least 5x Assimp's throughput on binary STL and PLY; peak "
             "memory under 3x the final indexed mesh.\n\n"
-         << "Machine: " << cpu_model() << ", " << sysconf(_SC_NPROCESSORS_ONLN)
+         << "Machine: " << osteon_bench::cpu_model() << ", " << sysconf(_SC_NPROCESSORS_ONLN)
          << " cores. Date: " << date << ". Command (Release build, from the repository root):\n\n"
          << "```\ncmake -S . -B build-bench -G Ninja -DCMAKE_BUILD_TYPE=Release "
             "-DOSTEON_BUILD_BENCH=ON -DOSTEON_BUILD_TESTS=OFF\ncmake --build build-bench --target "
             "read_bench\n"
          << command << "\n```\n\n"
          << table;
-    if (!write_section(write_path, "## Reading and welding (issue 2)", body.str())) {
+    if (!osteon_bench::write_section(write_path, "## Reading and welding (issue 2)", body.str())) {
       std::fprintf(stderr, "read_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

@@ -57,6 +57,22 @@ void expand(Aabb& box, const Aabb& other) {
   expand(box, other.max);
 }
 
+Mesh merge_parts(Scene&& scene) {
+  if (scene.parts.size() == 1) return std::move(scene.parts[0]);
+  Mesh merged;
+  merged.name = "merged";
+  for (Mesh& part : scene.parts) {
+    if (merged.source.empty()) merged.source = part.source;
+    merged.unit = part.unit;
+    merged.unit_source = part.unit_source;
+    const auto base = static_cast<uint32_t>(merged.positions.size());
+    merged.positions.insert(merged.positions.end(), part.positions.begin(), part.positions.end());
+    for (uint32_t i : part.indices) merged.indices.push_back(base + i);
+    merged.stored_vertices += part.stored_vertices;
+  }
+  return merged;
+}
+
 Aabb bounding_box(const Mesh& mesh) {
   Aabb box;
   if (mesh.indices.empty()) {

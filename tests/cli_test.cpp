@@ -14,27 +14,8 @@
 namespace osteon {
 namespace {
 
-struct CliRun {
-  int status = -1;
-  std::string out;  ///< stdout
-  std::string err;  ///< stderr
-};
-
-CliRun run_cli(const std::string& args) {
-  std::string err_path = test::scratch_dir() + "/stderr.txt";
-  std::string command = std::string(OSTEON_CLI_PATH) + " " + args + " 2>" + err_path;
-  CliRun run;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) run.out.append(buffer, n);
-  int raw = pclose(pipe);
-  run.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  auto bytes = test::read_bytes(err_path);
-  run.err.assign(bytes.begin(), bytes.end());
-  return run;
-}
+using test::CliRun;
+using test::run_cli;
 
 const char* kAsciiTetra =
     "solid tetra\n"

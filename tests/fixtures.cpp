@@ -2,11 +2,13 @@
 #include "fixtures.hpp"
 
 #include <gtest/gtest.h>
-
+#include <sys/wait.h>
 #include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -116,6 +118,22 @@ std::vector<std::array<float, 9>> canonical_triangles(const Mesh& mesh) {
   }
   std::sort(tris.begin(), tris.end());
   return tris;
+}
+
+CliRun run_cli(const std::string& args) {
+  const std::string err_path = scratch_dir() + "/stderr.txt";
+  const std::string command = std::string(OSTEON_CLI_PATH) + " " + args + " 2>" + err_path;
+  CliRun run;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) run.out.append(buffer, n);
+  const int raw = pclose(pipe);
+  run.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  const auto bytes = read_bytes(err_path);
+  run.err.assign(bytes.begin(), bytes.end());
+  return run;
 }
 
 }  // namespace osteon::test

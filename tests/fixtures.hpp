@@ -32,6 +32,15 @@ Scene parse_or_fail(const std::string& bytes, const std::string& source,
 /// The error message read_memory gives for these bytes ("" when it succeeds).
 std::string parse_error(const std::string& bytes, const std::string& source);
 
+/// What the osteon CLI (the real binary, OSTEON_CLI_PATH) did with some arguments.
+struct CliRun {
+  int status = -1;
+  std::string out;  ///< stdout
+  std::string err;  ///< stderr
+};
+/// Runs `osteon <args>` through the shell (args are pasted in as they are).
+CliRun run_cli(const std::string& args);
+
 struct NamedMesh {
   std::string category;  ///< "closed", "open", "genus1", "nonmanifold", "multicomponent", "degenerate"
   Mesh mesh;

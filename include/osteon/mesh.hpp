@@ -67,6 +67,10 @@ struct Aabb {
 void expand(Aabb& box, const Vec3& p);
 /// Grows `box` to hold `other` (an empty `other` changes nothing).
 void expand(Aabb& box, const Aabb& other);
+/// Every part of a scene in one mesh, in part order (their positions, then their triangles,
+/// concatenated); a single part is moved out unchanged. The name is "merged" for several parts.
+Mesh merge_parts(Scene&& scene);
+
 /// The bounding box of the positions that triangles reference (all positions when `indices` is
 /// empty).
 Aabb bounding_box(const Mesh& mesh);

@@ -35,24 +35,11 @@ struct DecodeArgs {
   bool json = false;
 };
 
-// Every part of the input in one mesh (a codec stream holds one mesh).
-Mesh merge_parts(Scene& scene) {
-  if (scene.parts.size() == 1) return std::move(scene.parts[0]);
-  Mesh merged;
-  merged.name = "merged";
-  for (Mesh& part : scene.parts) {
-    uint32_t base = static_cast<uint32_t>(merged.positions.size());
-    merged.positions.insert(merged.positions.end(), part.positions.begin(), part.positions.end());
-    for (uint32_t i : part.indices) merged.indices.push_back(base + i);
-  }
-  return merged;
-}
-
 int run_encode(const EncodeArgs& args) {
   Result<Scene> scene = read_path(args.input);
   if (!scene.ok()) return fail(scene.status());
   size_t parts = scene->parts.size();
-  Mesh mesh = merge_parts(scene.value());
+  Mesh mesh = merge_parts(std::move(scene.value()));
   EncodeOptions options;
   options.bits = args.bits;
   options.precision = args.precision;

@@ -38,6 +38,9 @@ int main(int argc, char** argv) {
   register_phantom(app, &run);
   register_encode(app, &run);
   register_decode(app, &run);
+  register_segment(app, &run);
+  register_compare(app, &run);
+  register_segeval(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,56 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "osteon/io.hpp"
+
+// What a benchmark needs to put its table into docs/BENCHMARKS.md: replace its own "## ..."
+// section and leave the others as they are, and name the machine it ran on.
+
+namespace osteon_bench {
+
+/// Replaces (or appends) the section headed `heading` ("## Title") in the Markdown file at
+/// `path`: from the heading to the next "## " heading. False when the file cannot be written.
+inline bool write_section(const std::filesystem::path& path, const std::string& heading,
+                          const std::string& body) {
+  std::string text;
+  {
+    std::ifstream in(path);
+    if (in) text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  if (text.empty()) {
+    text = "# Benchmarks\n\nProduced by the programs in bench/; see bench/README.md.\n";
+  }
+  std::string section = heading + "\n\n" + body;
+  size_t start = text.find(heading + "\n");
+  if (start == std::string::npos) {
+    if (text.back() != '\n') text += "\n";
+    text += "\n" + section;
+  } else {
+    size_t end = text.find("\n## ", start + heading.size());
+    text.replace(start, end == std::string::npos ? std::string::npos : end + 1 - start,
+                 end == std::string::npos ? section : section + "\n");
+  }
+  std::filesystem::path parent = path.parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  return osteon::write_file_atomic(path.string(), text.data(), text.size()).ok();
+}
+
+/// The CPU's model name from /proc/cpuinfo, or "unknown CPU".
+inline std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      size_t colon = line.find(':');
+      return colon == std::string::npos ? line : line.substr(colon + 2);
+    }
+  }
+  return "unknown CPU";
+}
+
+}  // namespace osteon_bench
