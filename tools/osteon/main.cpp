@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
   register_segment(app, &run);
   register_compare(app, &run);
   register_segeval(app, &run);
+  register_repeats(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,787 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "osteon/repeats.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "distance_internal.hpp"
+#include "osteon/hausdorff.hpp"
+#include "repeats_internal.hpp"
+
+// Based on: Zhou, Jia & Su (2018), section IV.C: candidates by AABB, then voxel similarity Phi,
+// then a matrix per repeat. Added here, for medicine: every substitution is verified (ICP from the
+// pose alignment, then a symmetric Hausdorff distance against a tolerance), and the all-pairs
+// comparison is replaced by a grid over a pose-invariant descriptor. docs/DESIGN.md ("Repeated
+// components") gives each step and why:
+//
+// clang-format off
+//  components ──pose (src/pose.cpp)──▶ centroid, RMS scale, principal axes, signs, normalised AABB
+//             ──voxelise (src/voxel_similarity.cpp)──▶ 16^3 occupancy in the normalised box
+//  descriptor grid ──▶ pairs in neighbouring cells ──▶ descriptor test ──▶ AABB test
+//  greedy, largest area first: prototype p, each unassigned partner m:
+//      Phi over the pose alternatives (sign flips, turns about an ambiguous axis) ──▶ best 3
+//      ──▶ ICP from each (src/icp.cpp) ──▶ Hausdorff(p transformed, m) <= tolerance ──▶ member
+// clang-format on
+
+namespace osteon {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using detail::Mat3;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::string component_label(const Mesh& mesh, size_t index) {
+  if (!mesh.name.empty()) return mesh.name;
+  if (!mesh.source.empty()) return mesh.source;
+  return "component " + std::to_string(index);
+}
+
+Status check_component(const Mesh& mesh, size_t index) {
+  const std::string label = component_label(mesh, index);
+  const std::string where = "component " + std::to_string(index);
+  if (mesh.indices.empty()) {
+    return error(ErrorCode::kInvalidArgument, label, "has no triangles: nothing to compare", where);
+  }
+  if (mesh.indices.size() % 3 != 0) {
+    return error(ErrorCode::kInvalidArgument, label,
+                 "index count " + std::to_string(mesh.indices.size()) + " is not a multiple of 3",
+                 where);
+  }
+  if (mesh.triangle_count() >= ClosestPoint::kNoTriangle) {
+    return error(ErrorCode::kInvalidArgument, label, "has more than 2^32 - 2 triangles", where);
+  }
+  for (size_t i = 0; i < mesh.indices.size(); ++i) {
+    if (mesh.indices[i] >= mesh.positions.size()) {
+      return error(ErrorCode::kInvalidArgument, label,
+                   "index " + std::to_string(mesh.indices[i]) + " out of range (" +
+                       std::to_string(mesh.positions.size()) + " vertices) in triangle " +
+                       std::to_string(i / 3),
+                   where);
+    }
+  }
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Vec3& p = mesh.positions[v];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      return error(ErrorCode::kInvalidData, label,
+                   "non-finite coordinate (" + std::to_string(p.x) + ", " + std::to_string(p.y) +
+                       ", " + std::to_string(p.z) + ") at vertex " + std::to_string(v),
+                   where);
+    }
+  }
+  return Status::ok_status();
+}
+
+Status check_options(const RepeatOptions& o) {
+  auto bad = [](const std::string& what) {
+    return error(ErrorCode::kInvalidArgument, "repeat options", what);
+  };
+  auto finite_at_least = [](double x, double low) { return std::isfinite(x) && x >= low; };
+  if (!finite_at_least(o.tolerance, 0)) return bad("tolerance must be a finite number >= 0");
+  if (!finite_at_least(o.precision, 0)) return bad("precision must be a finite number >= 0");
+  if (o.tolerance == 0 && o.precision == 0 && (o.bits < 8 || o.bits > 24)) {
+    return bad("bits must be 8..24, got " + std::to_string(o.bits));
+  }
+  if (!finite_at_least(o.descriptor_tolerance, 0) || !finite_at_least(o.area_tolerance, 0) ||
+      !finite_at_least(o.aabb_tolerance, 0)) {
+    return bad("descriptor, area and AABB tolerances must be finite numbers >= 0");
+  }
+  if (!(o.phi_threshold >= 0 && o.phi_threshold <= 1) ||
+      !(o.min_jaccard >= 0 && o.min_jaccard <= 1)) {
+    return bad("phi_threshold and min_jaccard must be in [0, 1]");
+  }
+  if (o.icp_samples < 3) return bad("icp_samples must be >= 3");
+  if (o.icp_iterations < 0 || o.icp_iterations > 1000) return bad("icp_iterations must be 0..1000");
+  if (o.threads < 0) return bad("threads must be >= 0 (0: every core)");
+  if (!finite_at_least(o.bytes_per_triangle, 0)) return bad("bytes_per_triangle must be >= 0");
+  return Status::ok_status();
+}
+
+struct Component {
+  bool usable = false;  // has a pose (area > 0)
+  detail::Pose pose;
+  detail::VoxelGrid grid;  // in the canonical frame, over the normalised AABB
+  double shape_area = 0;   // area / scale^2: pose- and scale-invariant
+  double resolution = 0;   // decimal_resolution of its coordinates
+  double epsilon = 0;      // its tolerance as a member over its scale (normalised units)
+};
+
+// The decimal grid a mesh's coordinates were rounded to before they became floats (an exporter
+// printing "%f" writes metres to 6 decimals: every MyoSim coordinate is a multiple of 1e-6), or 0
+// when there is none to see. 10^-k for the smallest k (1..9) such that every coordinate is within
+// float rounding of a multiple of 10^-k and at least half of those multiples do not end in 0 (so
+// a box with integer corners is not "rounded to 0.1"); a grid finer than 16 float steps at the
+// largest coordinate cannot be told from float rounding itself and is not looked for. O(V).
+double decimal_resolution(const Mesh& mesh) {
+  std::vector<char> used(mesh.positions.size(), 0);
+  for (uint32_t i : mesh.indices) used[i] = 1;
+  std::vector<double> values;
+  double largest = 0;
+  for (size_t v = 0; v < used.size(); ++v) {
+    if (!used[v]) continue;
+    for (float c : {mesh.positions[v].x, mesh.positions[v].y, mesh.positions[v].z}) {
+      values.push_back(c);
+      largest = std::max(largest, std::fabs(double(c)));
+    }
+  }
+  if (values.empty()) return 0;
+  constexpr double kFloatStep = 0x1p-23;  // relative spacing of floats
+  double resolution = 1;
+  for (int k = 1; k <= 9; ++k) {
+    resolution /= 10;
+    if (resolution < 16 * largest * kFloatStep) break;
+    const double scale = std::pow(10.0, k);
+    bool on_grid = true;
+    size_t nonzero = 0;
+    for (double c : values) {
+      const double t = c * scale, d = std::nearbyint(t);
+      if (std::fabs(t - d) > scale * std::fabs(c) * kFloatStep + 1e-9) {
+        on_grid = false;
+        break;
+      }
+      if (std::fmod(std::fabs(d), 10.0) != 0) ++nonzero;
+    }
+    if (on_grid && 2 * nonzero >= values.size()) return resolution;
+  }
+  return 0;
+}
+
+// The vertices triangles use, evenly strided down to at most `count`.
+std::vector<Vec3d> vertex_samples(const Mesh& mesh, size_t count) {
+  std::vector<char> used(mesh.positions.size(), 0);
+  for (uint32_t i : mesh.indices) used[i] = 1;
+  std::vector<uint32_t> list;
+  for (uint32_t v = 0; v < used.size(); ++v) {
+    if (used[v]) list.push_back(v);
+  }
+  std::vector<Vec3d> out;
+  const size_t n = std::min(count, list.size());
+  out.reserve(n);
+  for (size_t k = 0; k < n; ++k)
+    out.push_back(to_double(mesh.positions[list[k * list.size() / n]]));
+  return out;
+}
+
+bool close_enough(double x, double y, double tolerance) {
+  return std::fabs(x - y) <= tolerance * std::max(std::fabs(x), std::fabs(y)) + 1e-12;
+}
+
+// Two quantities of normalised poses agree: within `relative` of the larger and within
+// `absolute`.
+bool agree(double x, double y, double relative, double absolute) {
+  return close_enough(x, y, relative) && std::fabs(x - y) <= absolute;
+}
+
+// The paper's step 1, on normalised boxes. Extents along an ambiguous axis depend on the turn
+// about it, so there the distance from the distinct axis (or from the centroid) is compared.
+bool boxes_agree(const detail::Pose& a, const detail::Pose& b, double relative, double absolute) {
+  int u = 0;
+  switch (detail::combined_ambiguity(a, b, &u)) {
+    case detail::AxisAmbiguity::kNone:
+      for (size_t k = 0; k < 3; ++k) {
+        if (!agree(a.box_max[k] - a.box_min[k], b.box_max[k] - b.box_min[k], relative, absolute)) {
+          return false;
+        }
+      }
+      return true;
+    case detail::AxisAmbiguity::kPlane: {
+      const size_t k = size_t(u);
+      return agree(a.box_max[k] - a.box_min[k], b.box_max[k] - b.box_min[k], relative, absolute) &&
+             agree(a.radial[k], b.radial[k], relative, absolute);
+    }
+    case detail::AxisAmbiguity::kFull:
+      return agree(a.radius, b.radius, relative, absolute);
+  }
+  return false;
+}
+
+// How far the normalised descriptor and box of a repeat within tolerance can move: every point
+// moves at most epsilon (the tolerance over the scale, in normalised units), and the principal
+// frame tilts with the moments, by up to about epsilon / (the 10% moment gap) radians, which
+// moves a point at radius R by 10 epsilon R, twice over two components. So the candidate tests
+// take at most (kTilt epsilon + kFloor) R on top of their options' relative tolerances: a look-
+// alike stretched by a few percent is dropped there, before any ICP, once the tolerance is small.
+constexpr double kTilt = 20;
+constexpr double kFloor = 0.002;
+
+double candidate_slack(const Component& a, const Component& b) {
+  const double epsilon = std::max(a.epsilon, b.epsilon);
+  return (kTilt * epsilon + kFloor) * std::max(a.pose.radius, b.pose.radius);
+}
+
+// True when `turn` only flips axes; sets the flipped axes as bits of *mask.
+bool is_sign_flip(const Mat3& turn, unsigned* mask) {
+  *mask = 0;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      const double x = turn[size_t(3 * r + c)];
+      if (r != c && x != 0) return false;
+      if (r == c && x != 1 && x != -1) return false;
+      if (r == c && x < 0) *mask |= 1u << r;
+    }
+  }
+  return true;
+}
+
+struct Candidate {
+  Mat3 turn = detail::kIdentity3;
+  detail::VoxelSimilarity similarity;
+};
+
+struct PairVoxels {
+  std::vector<Candidate> passing;  // best first (by Jaccard, then Phi)
+  uint64_t alternatives = 0;
+};
+
+constexpr size_t kTried = 3;  // pose alternatives refined by ICP per pair
+
+// Phi and Jaccard between prototype a and component b under every pose alternative.
+PairVoxels compare_voxels(const Mesh& b_mesh, const Component& a, const Component& b,
+                          const RepeatOptions& options) {
+  PairVoxels out;
+  const double handedness = detail::determinant(a.pose.axes) * detail::determinant(b.pose.axes);
+  for (const Mat3& turn : detail::pose_alternatives(a.pose, b.pose)) {
+    if (!options.allow_mirror && handedness * detail::determinant(turn) < 0) continue;
+    unsigned mask = 0;
+    const detail::VoxelGrid grid = is_sign_flip(turn, &mask)
+                                       ? detail::flip_axes(b.grid, mask)
+                                       : detail::voxelize(b_mesh, b.pose, turn);
+    const detail::VoxelSimilarity s = detail::voxel_similarity(a.grid, grid);
+    ++out.alternatives;
+    if (s.phi > options.phi_threshold && s.jaccard >= options.min_jaccard) {
+      out.passing.push_back({turn, s});
+    }
+  }
+  std::stable_sort(out.passing.begin(), out.passing.end(),
+                   [](const Candidate& x, const Candidate& y) {
+                     if (x.similarity.jaccard != y.similarity.jaccard) {
+                       return x.similarity.jaccard > y.similarity.jaccard;
+                     }
+                     return x.similarity.phi > y.similarity.phi;
+                   });
+  return out;
+}
+
+// The similarity the pose alignment gives from a's vertices to b's: y_a = turn * y_b, so
+// x_b = c_b + s_b axes_b^T turn^T axes_a (x_a - c_a) / s_a.
+detail::Similarity pose_transform(const detail::Pose& a, const detail::Pose& b, const Mat3& turn,
+                                  bool allow_scale) {
+  Mat3 linear = detail::multiply(detail::transpose(b.axes),
+                                 detail::multiply(detail::transpose(turn), a.axes));
+  const double s = allow_scale ? b.scale / a.scale : 1.0;
+  for (double& x : linear) x *= s;
+  detail::Similarity out;
+  out.linear = linear;
+  out.translation = b.centroid - detail::multiply(linear, a.centroid);
+  return out;
+}
+
+std::array<double, 16> column_major(const detail::Similarity& s) {
+  std::array<double, 16> m{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) m[size_t(4 * c + r)] = s.linear[size_t(3 * r + c)];
+  }
+  m[12] = s.translation.x;
+  m[13] = s.translation.y;
+  m[14] = s.translation.z;
+  m[15] = 1;
+  return m;
+}
+
+Mesh moved(const Mesh& mesh, const detail::Similarity& s) {
+  Mesh out;
+  out.name = mesh.name;
+  out.source = mesh.source;
+  out.indices = mesh.indices;
+  out.positions.reserve(mesh.positions.size());
+  for (const Vec3& p : mesh.positions) {
+    const Vec3d q = detail::apply(s, to_double(p));
+    out.positions.push_back({float(q.x), float(q.y), float(q.z)});
+  }
+  return out;
+}
+
+uint64_t hausdorff_samples(const Mesh& sampled, const RepeatOptions& options) {
+  if (options.hausdorff_samples > 0) return options.hausdorff_samples;
+  return std::clamp<uint64_t>(3 * uint64_t(sampled.vertex_count()), 600, 30000);
+}
+
+// Samples for the coarse ICP, a side, and how far beyond the tolerance its fit may be.
+constexpr size_t kCoarseSamples = 64;
+// Prototypes verified together at most (their work independent, see find_repeats_here).
+constexpr size_t kBatch = 256;
+constexpr double kCoarseReject = 4.0;
+
+// What every verification against one prototype shares.
+struct Prototype {
+  const Mesh* mesh = nullptr;
+  const Component* component = nullptr;
+  const DistanceQuery* query = nullptr;
+  std::vector<Vec3d> samples;  // options.icp_samples of its vertices
+  std::vector<Vec3d> coarse;   // kCoarseSamples of them
+};
+
+struct Verdict {
+  bool verified = false;  // ICP (and, unless ICP already exceeded the tolerance, Hausdorff) ran
+  bool accepted = false;
+  RepeatMember member;
+};
+
+// ICP from the pose alignment (or, for a copy with the same vertex list, the fit of vertex i to
+// vertex i), then the symmetric Hausdorff distance between the moved prototype and the member.
+Verdict verify(const Prototype& p, const Mesh& m_mesh, const Component& m, size_t m_index,
+               const PairVoxels& voxels, const RepeatOptions& options) {
+  const Mesh& p_mesh = *p.mesh;
+  const DistanceQuery& p_query = *p.query;
+  Verdict verdict;
+  verdict.verified = true;
+  // The codec's bound, but never below what the stored coordinates' own rounding allows: two
+  // copies of one shape, each rounded to its decimal grid, differ by up to sqrt(3) / 2 of the
+  // grid steps (the prototype's scaled) however exact the copy.
+  double tolerance = repeat_tolerance(m_mesh, options);
+  if (options.tolerance == 0) {
+    const double s = options.allow_scale ? m.pose.scale / p.component->pose.scale : 1.0;
+    tolerance =
+        std::max(tolerance, 0.5 * std::sqrt(3.0) * (s * p.component->resolution + m.resolution));
+  }
+  Result<DistanceQuery> built = DistanceQuery::build(m_mesh);
+  if (!built.ok()) return verdict;
+  const DistanceQuery& m_query = built.value();
+
+  detail::Similarity transform;
+  Candidate used = voxels.passing.front();
+  bool found = false;
+  // Fast path: a copy that kept its vertex order (what moving, rotating or mirroring a file's
+  // vertices gives) fits vertex to vertex exactly, without closest points.
+  if (p_mesh.vertex_count() == m_mesh.vertex_count() &&
+      p_mesh.triangle_count() == m_mesh.triangle_count()) {
+    std::vector<Vec3d> from, to;
+    from.reserve(p_mesh.vertex_count());
+    to.reserve(p_mesh.vertex_count());
+    for (size_t v = 0; v < p_mesh.vertex_count(); ++v) {
+      from.push_back(to_double(p_mesh.positions[v]));
+      to.push_back(to_double(m_mesh.positions[v]));
+    }
+    detail::Similarity fit;
+    if (detail::fit_similarity(from, to, options.allow_mirror ? 0 : 1, options.allow_scale, &fit)) {
+      double worst = 0;
+      for (size_t v = 0; v < from.size(); ++v) {
+        worst = std::max(worst, std::sqrt(squared_length(detail::apply(fit, from[v]) - to[v])));
+      }
+      if (worst <= tolerance) {
+        transform = fit;
+        found = true;
+      }
+    }
+  }
+  if (!found) {
+    // Coarse to fine: ICP on a few samples first; a pose alternative whose coarse fit leaves a
+    // sample farther than kCoarseReject tolerances from the other surface is dropped (the
+    // distances are exact distances of samples, so the Hausdorff distance is at least that),
+    // which spares the full ICP on look-alikes.
+    const std::vector<Vec3d> m_coarse = vertex_samples(m_mesh, kCoarseSamples);
+    const std::vector<Vec3d> m_samples = vertex_samples(m_mesh, options.icp_samples);
+    const detail::IcpSide p_coarse_side{&p_mesh, &p.coarse, p.query};
+    const detail::IcpSide m_coarse_side{&m_mesh, &m_coarse, &m_query};
+    // Where more alternatives pass than ICP will try (turns about an ambiguous axis), the ones
+    // that line the vertices up best go first.
+    std::vector<Candidate> tried = voxels.passing;
+    if (tried.size() > kTried) {
+      std::vector<std::pair<double, size_t>> ranked;
+      for (size_t k = 0; k < tried.size(); ++k) {
+        const detail::Similarity start =
+            pose_transform(p.component->pose, m.pose, tried[k].turn, options.allow_scale);
+        ranked.push_back({detail::corner_residual(p_coarse_side, m_coarse_side, start), k});
+      }
+      std::sort(ranked.begin(), ranked.end());
+      std::vector<Candidate> best_ranked;
+      for (size_t k = 0; k < kTried; ++k) best_ranked.push_back(tried[ranked[k].second]);
+      tried = std::move(best_ranked);
+    }
+    detail::IcpResult best;
+    bool have = false;
+    for (const Candidate& c : tried) {
+      const detail::IcpResult coarse =
+          detail::icp(p_coarse_side, m_coarse_side,
+                      pose_transform(p.component->pose, m.pose, c.turn, options.allow_scale),
+                      options.allow_scale, options.icp_iterations, kCoarseReject * tolerance);
+      if (coarse.gave_up || coarse.max > kCoarseReject * tolerance) continue;
+      const detail::IcpResult r =
+          detail::icp({&p_mesh, &p.samples, p.query}, {&m_mesh, &m_samples, &m_query},
+                      coarse.transform, options.allow_scale, options.icp_iterations);
+      if (!have || r.rms < best.rms) {
+        best = r;
+        used = c;
+        have = true;
+      }
+      if (best.max <= tolerance) break;
+    }
+    // The ICP's distances are exact distances of sample points to the other surface: when one
+    // of them exceeds the tolerance, so does the Hausdorff distance.
+    if (!have || best.max > tolerance) return verdict;
+    transform = best.transform;
+  }
+
+  HausdorffOptions forward_options;
+  forward_options.threads = 1;
+  forward_options.samples = hausdorff_samples(p_mesh, options);
+  HausdorffOptions backward_options = forward_options;
+  backward_options.samples = hausdorff_samples(m_mesh, options);
+  const double scale = detail::similarity_scale(transform);
+  // Forward: the moved prototype sampled against the member. Backward: the member sampled
+  // against the prototype, after moving it back; distances scale by the similarity's scale.
+  Result<OneSidedDistance> forward =
+      one_sided_distance(moved(p_mesh, transform), m_query, forward_options);
+  Result<OneSidedDistance> backward =
+      one_sided_distance(moved(m_mesh, detail::inverse(transform)), p_query, backward_options);
+  if (!forward.ok() || !backward.ok()) return verdict;
+  const double distance = std::max(forward->max, scale * backward->max);
+
+  RepeatMember& member = verdict.member;
+  member.part = m_index;
+  member.matrix = column_major(transform);
+  member.mirror = detail::determinant(transform.linear) < 0;
+  member.scale = scale;
+  member.hausdorff = distance;
+  member.tolerance = tolerance;
+  member.phi = used.similarity.phi;
+  member.jaccard = used.similarity.jaccard;
+  verdict.accepted = distance <= tolerance;
+  return verdict;
+}
+
+Result<RepeatReport> find_repeats_here(const std::vector<Mesh>& components,
+                                       const RepeatOptions& options) {
+  const auto start = Clock::now();
+  RepeatReport report;
+  RepeatCounters& counters = report.counters;
+  RepeatTimings& timings = report.timings;
+  const size_t n = components.size();
+  counters.components = n;
+  counters.pairs_total = n > 1 ? uint64_t(n) * (n - 1) / 2 : 0;
+
+  // 1. Pose and voxels of every component.
+  auto stage = Clock::now();
+  std::vector<Component> comps(n);
+  const detail::PoseOptions pose_options;
+  tbb::parallel_for(size_t(0), n, [&](size_t i) {
+    Component& c = comps[i];
+    c.usable = detail::compute_pose(components[i], pose_options, &c.pose);
+    if (!c.usable) return;
+    c.grid = detail::voxelize(components[i], c.pose, detail::kIdentity3);
+    c.shape_area = c.pose.area / (c.pose.scale * c.pose.scale);
+    c.resolution = options.tolerance == 0 ? decimal_resolution(components[i]) : 0.0;
+    // The tolerance the component gets as a member (the rounding floor taken at scale 1).
+    const double tolerance = std::max(repeat_tolerance(components[i], options),
+                                      options.tolerance == 0 ? std::sqrt(3.0) * c.resolution : 0.0);
+    c.epsilon = tolerance / c.pose.scale;
+  });
+  std::vector<size_t> usable;
+  for (size_t i = 0; i < n; ++i) {
+    if (comps[i].usable) usable.push_back(i);
+  }
+  counters.skipped = n - usable.size();
+  // The greedy order: larger area first, ties by index.
+  std::vector<size_t> order = usable;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (comps[a].pose.area != comps[b].pose.area) return comps[a].pose.area > comps[b].pose.area;
+    return a < b;
+  });
+  std::vector<size_t> rank(n, 0);
+  for (size_t k = 0; k < order.size(); ++k) rank[order[k]] = k;
+  timings.pose_ms = ms_since(stage);
+
+  // 2. Candidates: a grid over the pose descriptor (the two largest normalised moments, in
+  // cells of descriptor_tolerance, and log(area / scale^2), in cells wide enough for
+  // area_tolerance): a pair that can pass the descriptor test lies in neighbouring cells, so
+  // only those pairs are looked at.
+  stage = Clock::now();
+  using Cell = std::array<int64_t, 3>;
+  const double moment_cell = std::max(options.descriptor_tolerance, 1e-12);
+  const double area_cell =
+      options.area_tolerance < 1 ? std::max(-std::log1p(-options.area_tolerance), 1e-12) : 0.0;
+  auto cell_of = [&](const Component& c) -> Cell {
+    return {int64_t(std::floor(c.pose.moments[0] / moment_cell)),
+            int64_t(std::floor(c.pose.moments[1] / moment_cell)),
+            area_cell > 0 ? int64_t(std::floor(std::log(c.shape_area) / area_cell)) : 0};
+  };
+  std::vector<std::pair<Cell, size_t>> cells;
+  cells.reserve(usable.size());
+  for (size_t i : usable) cells.push_back({cell_of(comps[i]), i});
+  std::sort(cells.begin(), cells.end());
+  const size_t k_count = usable.size();
+  std::vector<std::vector<size_t>> cell_pairs(k_count);  // partners j > usable[a]
+  std::vector<uint64_t> considered(k_count, 0), descriptor(k_count, 0);
+  tbb::parallel_for(size_t(0), k_count, [&](size_t a) {
+    const size_t i = usable[a];
+    const Component& ca = comps[i];
+    const Cell home = cell_of(ca);
+    for (int64_t d0 = -1; d0 <= 1; ++d0) {
+      for (int64_t d1 = -1; d1 <= 1; ++d1) {
+        for (int64_t d2 = -1; d2 <= 1; ++d2) {
+          const Cell cell = {home[0] + d0, home[1] + d1, home[2] + d2};
+          auto first =
+              std::lower_bound(cells.begin(), cells.end(), std::make_pair(cell, size_t(0)));
+          for (auto it = first; it != cells.end() && it->first == cell; ++it) {
+            const size_t j = it->second;
+            if (j <= i) continue;
+            const Component& cb = comps[j];
+            ++considered[a];
+            const double slack = candidate_slack(ca, cb);
+            const double moment_bound = std::min(options.descriptor_tolerance, slack);
+            if (std::fabs(cb.pose.moments[0] - ca.pose.moments[0]) > moment_bound ||
+                std::fabs(cb.pose.moments[1] - ca.pose.moments[1]) > moment_bound ||
+                !close_enough(ca.shape_area, cb.shape_area, options.area_tolerance)) {
+              continue;
+            }
+            if (!options.allow_scale &&
+                !close_enough(ca.pose.scale, cb.pose.scale, options.aabb_tolerance)) {
+              continue;
+            }
+            ++descriptor[a];
+            if (!boxes_agree(ca.pose, cb.pose, options.aabb_tolerance, slack)) continue;
+            cell_pairs[a].push_back(j);
+          }
+        }
+      }
+    }
+  });
+  // Each pair is filed under the one that comes first in the greedy order (its possible
+  // prototype), partners in greedy order.
+  std::vector<std::vector<size_t>> partners(n);
+  for (size_t a = 0; a < k_count; ++a) {
+    counters.pairs_considered += considered[a];
+    counters.pairs_descriptor += descriptor[a];
+    counters.pairs_aabb += cell_pairs[a].size();
+    for (size_t j : cell_pairs[a]) {
+      const size_t i = usable[a];
+      if (rank[i] < rank[j]) {
+        partners[i].push_back(j);
+      } else {
+        partners[j].push_back(i);
+      }
+    }
+  }
+  for (std::vector<size_t>& list : partners) {
+    std::sort(list.begin(), list.end(), [&](size_t a, size_t b) { return rank[a] < rank[b]; });
+  }
+  cell_pairs.clear();
+  timings.candidates_ms = ms_since(stage);
+
+  // 3. Greedy grouping with lazy voxel comparison and verification. Prototypes are taken in
+  // batches whose work is independent (no prototype among another's open partners, no partner
+  // shared), so that the batch runs in parallel and gives exactly what one at a time gives.
+  std::vector<char> assigned(n, 0), touched(n, 0);
+  size_t next = 0;
+  while (next < order.size()) {
+    struct Job {
+      size_t prototype;
+      std::vector<size_t> open;  // unassigned partners
+      std::vector<PairVoxels> voxels;
+      std::vector<size_t> passing;  // indices into open
+      std::optional<DistanceQuery> query;
+      Prototype data;
+      std::vector<Verdict> verdicts;
+    };
+    std::vector<Job> batch;
+    while (next < order.size() && batch.size() < kBatch) {
+      const size_t p = order[next];
+      std::vector<size_t> open;
+      if (!assigned[p]) {
+        for (size_t j : partners[p]) {
+          if (!assigned[j]) open.push_back(j);
+        }
+      }
+      if (open.empty()) {  // nothing to do, now or later
+        ++next;
+        continue;
+      }
+      bool conflict = touched[p] != 0;
+      for (size_t j : open) conflict = conflict || touched[j] != 0;
+      if (conflict) break;
+      touched[p] = 1;
+      for (size_t j : open) touched[j] = 1;
+      batch.push_back({p, std::move(open), {}, {}, std::nullopt, {}, {}});
+      ++next;
+    }
+
+    // Voxel similarity of every (prototype, partner) pair of the batch.
+    stage = Clock::now();
+    std::vector<std::pair<size_t, size_t>> pairs;  // (job, index in its open list)
+    for (size_t b = 0; b < batch.size(); ++b) {
+      batch[b].voxels.resize(batch[b].open.size());
+      for (size_t k = 0; k < batch[b].open.size(); ++k) pairs.push_back({b, k});
+    }
+    tbb::parallel_for(size_t(0), pairs.size(), [&](size_t q) {
+      Job& job = batch[pairs[q].first];
+      const size_t j = job.open[pairs[q].second];
+      job.voxels[pairs[q].second] =
+          compare_voxels(components[j], comps[job.prototype], comps[j], options);
+    });
+    for (Job& job : batch) {
+      for (size_t k = 0; k < job.open.size(); ++k) {
+        counters.pose_alternatives += job.voxels[k].alternatives;
+        if (!job.voxels[k].passing.empty()) job.passing.push_back(k);
+      }
+      counters.pairs_phi_evaluated += job.open.size();
+      counters.pairs_phi += job.passing.size();
+    }
+    timings.phi_ms += ms_since(stage);
+
+    // Verification: the prototypes' distance queries, then every passing pair.
+    stage = Clock::now();
+    std::vector<size_t> verifying;
+    for (size_t b = 0; b < batch.size(); ++b) {
+      if (!batch[b].passing.empty()) verifying.push_back(b);
+    }
+    std::vector<Status> built(verifying.size());
+    tbb::parallel_for(size_t(0), verifying.size(), [&](size_t v) {
+      Job& job = batch[verifying[v]];
+      const Mesh& mesh = components[job.prototype];
+      Result<DistanceQuery> query = DistanceQuery::build(mesh);
+      if (!query.ok()) {
+        built[v] = query.status();
+        return;
+      }
+      job.query.emplace(std::move(query).value());
+      job.data.mesh = &mesh;
+      job.data.component = &comps[job.prototype];
+      job.data.query = &*job.query;
+      job.data.samples = vertex_samples(mesh, options.icp_samples);
+      job.data.coarse = vertex_samples(mesh, kCoarseSamples);
+      job.verdicts.resize(job.passing.size());
+    });
+    for (const Status& status : built) OSTEON_RETURN_IF_ERROR(status);
+    pairs.clear();
+    for (size_t b : verifying) {
+      for (size_t k = 0; k < batch[b].passing.size(); ++k) pairs.push_back({b, k});
+    }
+    tbb::parallel_for(size_t(0), pairs.size(), [&](size_t q) {
+      Job& job = batch[pairs[q].first];
+      const size_t k = job.passing[pairs[q].second];
+      const size_t j = job.open[k];
+      job.verdicts[pairs[q].second] =
+          verify(job.data, components[j], comps[j], j, job.voxels[k], options);
+    });
+    for (Job& job : batch) {
+      RepeatGroup group;
+      group.prototype = job.prototype;
+      for (Verdict& v : job.verdicts) {
+        counters.pairs_verified += v.verified ? 1 : 0;
+        if (v.accepted) {
+          ++counters.pairs_accepted;
+          assigned[v.member.part] = 1;
+          group.members.push_back(v.member);
+        } else if (v.verified) {
+          ++counters.rejected_hausdorff;
+        }
+      }
+      touched[job.prototype] = 0;
+      for (size_t j : job.open) touched[j] = 0;
+      if (group.members.empty()) continue;
+      assigned[job.prototype] = 1;
+      report.groups.push_back(std::move(group));
+    }
+    timings.verify_ms += ms_since(stage);
+  }
+
+  std::sort(report.groups.begin(), report.groups.end(),
+            [](const RepeatGroup& a, const RepeatGroup& b) { return a.prototype < b.prototype; });
+  for (RepeatGroup& g : report.groups) {
+    std::sort(g.members.begin(), g.members.end(),
+              [](const RepeatMember& a, const RepeatMember& b) { return a.part < b.part; });
+    for (const RepeatMember& m : g.members) {
+      const uint64_t triangles = components[m.part].triangle_count();
+      ++report.members;
+      report.triangles_saved += triangles;
+      const double bytes =
+          double(triangles) * options.bytes_per_triangle - double(options.bytes_per_instance);
+      if (bytes > 0) report.bytes_saved += uint64_t(std::llround(bytes));
+      report.largest_error = std::max(report.largest_error, m.hausdorff);
+    }
+  }
+  timings.total_ms = ms_since(start);
+  return report;
+}
+
+}  // namespace
+
+Result<RepeatReport> find_repeats(const std::vector<Mesh>& components,
+                                  const RepeatOptions& options) {
+  OSTEON_RETURN_IF_ERROR(check_options(options));
+  for (size_t i = 0; i < components.size(); ++i) {
+    OSTEON_RETURN_IF_ERROR(check_component(components[i], i));
+  }
+  const int cores = tbb::info::default_concurrency();
+  tbb::task_arena arena(options.threads > 0 ? std::min(options.threads, cores) : cores);
+  return arena.execute([&] { return find_repeats_here(components, options); });
+}
+
+double repeat_tolerance(const Mesh& member, const RepeatOptions& options) {
+  if (options.tolerance > 0) return options.tolerance;
+  double step = 2 * options.precision;
+  if (!(options.precision > 0)) {
+    const Aabb box = bounding_box(member);
+    const double side =
+        box.empty ? 0.0
+                  : std::max({double(box.max.x) - box.min.x, double(box.max.y) - box.min.y,
+                              double(box.max.z) - box.min.z});
+    step = side / double((uint64_t{1} << options.bits) - 1);
+  }
+  return 0.5 * step * std::sqrt(3.0);
+}
+
+std::array<double, 16> multiply_matrices(const std::array<double, 16>& a,
+                                         const std::array<double, 16>& b) {
+  std::array<double, 16> out{};
+  for (size_t c = 0; c < 4; ++c) {
+    for (size_t r = 0; r < 4; ++r) {
+      double sum = 0;
+      for (size_t k = 0; k < 4; ++k) sum += a[4 * k + r] * b[4 * c + k];
+      out[4 * c + r] = sum;
+    }
+  }
+  return out;
+}
+
+Mesh transform_mesh(const Mesh& mesh, const std::array<double, 16>& matrix) {
+  const auto& m = matrix;
+  Mesh out = mesh;
+  for (Vec3& p : out.positions) {
+    const double x = p.x, y = p.y, z = p.z;
+    p = {float(m[0] * x + m[4] * y + m[8] * z + m[12]),
+         float(m[1] * x + m[5] * y + m[9] * z + m[13]),
+         float(m[2] * x + m[6] * y + m[10] * z + m[14])};
+  }
+  // Columns of the linear part; normals go by its inverse transpose, which is the cofactor
+  // matrix [c1 x c2, c2 x c0, c0 x c1] (as columns) over the determinant.
+  const Vec3d c0{m[0], m[1], m[2]}, c1{m[4], m[5], m[6]}, c2{m[8], m[9], m[10]};
+  const double det = dot(c0, cross(c1, c2));
+  const Vec3d k0 = cross(c1, c2), k1 = cross(c2, c0), k2 = cross(c0, c1);
+  for (Vec3& n : out.normals) {
+    Vec3d q = double(n.x) * k0 + double(n.y) * k1 + double(n.z) * k2;
+    const double length = std::sqrt(squared_length(q));
+    if (length > 0) q = ((det < 0 ? -1.0 : 1.0) / length) * q;
+    n = {float(q.x), float(q.y), float(q.z)};
+  }
+  if (det < 0) {
+    for (size_t f = 0; f + 2 < out.indices.size(); f += 3) {
+      std::swap(out.indices[f + 1], out.indices[f + 2]);
+    }
+  }
+  return out;
+}
+
+}  // namespace osteon
