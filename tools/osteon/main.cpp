@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   register_compare(app, &run);
   register_segeval(app, &run);
   register_repeats(app, &run);
+  register_serve(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
