@@ -1,6 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <time.h>
+
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -9,7 +13,8 @@
 #include "osteon/io.hpp"
 
 // What a benchmark needs to put its table into docs/BENCHMARKS.md: replace its own "## ..."
-// section and leave the others as they are, and name the machine it ran on.
+// section and leave the others as they are, name the machine it ran on, format its numbers, and
+// time on a shared machine.
 
 namespace osteon_bench {
 
@@ -51,6 +56,39 @@ inline std::string cpu_model() {
     }
   }
   return "unknown CPU";
+}
+
+/// `value` with `decimals` digits after the point.
+inline std::string fixed(double value, int decimals) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
+/// `value` with `digits` significant digits (%g).
+inline std::string sig(double value, int digits = 6) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*g", digits, value);
+  return text;
+}
+
+/// 1234567 -> "1,234,567".
+inline std::string grouped(uint64_t value) {
+  const std::string digits = std::to_string(value);
+  std::string out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+/// This thread's CPU time in seconds: a run preempted on a shared machine does not count the
+/// other work.
+inline double thread_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 }  // namespace osteon_bench

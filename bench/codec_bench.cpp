@@ -326,21 +326,7 @@ void merge_wasm(const WasmRun& run, std::vector<Row>& rows) {
 
 // ---- the report ----------------------------------------------------------------------------
 
-std::string fixed(double value, int decimals) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
 
-/// 1234567 -> "1,234,567".
-std::string grouped(uint64_t value) {
-  std::string digits = std::to_string(value), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
 
 /// Bytes as KB (1024 bytes, as the Draco figures): one decimal below 100 KB.
 std::string kb(double bytes) {
@@ -353,11 +339,6 @@ std::string ms_text(double ms) {
   return ms < 10 ? fixed(ms, 2) : ms < 100 ? fixed(ms, 1) : fixed(ms, 0);
 }
 
-std::string sig(double value) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3g", value);
-  return text;
-}
 
 std::string wasm_text(double ms, const std::string& error) {
   if (ms >= 0) return ms_text(ms);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_markdown.hpp"
 #include "osteon/codec.hpp"
 #include "osteon/mesh.hpp"
 
@@ -30,8 +31,9 @@ struct Timing {
 /// CLOCK_THREAD_CPUTIME_ID (the machine is shared: a preempted run does not count the other
 /// process's time) or, with `wall`, CLOCK_MONOTONIC. Every codec measured here is single-threaded.
 inline double now_seconds(bool wall) {
+  if (!wall) return thread_seconds();
   timespec ts{};
-  clock_gettime(wall ? CLOCK_MONOTONIC : CLOCK_THREAD_CPUTIME_ID, &ts);
+  clock_gettime(CLOCK_MONOTONIC, &ts);
   return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 

@@ -1,6 +1,4 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -8,34 +6,37 @@
 #include <random>
 #include <vector>
 
+#include "bench_markdown.hpp"
 #include "byte_io.hpp"
 #include "entropy.hpp"
 
 // Decoding throughput of the symbol coder (src/entropy.cpp) on two synthetic streams shaped like
 // the codec's: Edgebreaker-like CLERS symbols with the previous symbol as context, and
 // geometry-like residual buckets (24 symbols, 6 contexts) with a raw bit stream of mantissas.
-// Not built by CMake: g++ -O2 -std=c++20 -DNDEBUG -Isrc -Iinclude bench/entropy_bench.cpp
-// src/entropy.cpp src/status.cpp. Prints symbols/s (best of 15) and bits/symbol against the
-// empirical conditional entropy.
+// Built with the other benchmarks (target entropy_bench). Prints symbols/s (best of 15) and
+// bits/symbol against the empirical conditional entropy.
 
 namespace {
 
 using osteon::ByteReader;
 using osteon::detail::SymbolDecoder;
 using osteon::detail::SymbolEncoder;
-// Thread CPU time, so that other processes on a busy machine do not count (the machine this was
-// written on has 2 cores shared by several builds).
-struct Clock {
-  using time_point = double;
-  static double now() {
-    timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+/// The best of 15 decodes of `bytes` (alphabet and contexts as encoded), in seconds of thread
+/// CPU time: init, `decode_all(decoder)` reading every symbol, finish. Aborts on a decoding error.
+template <class DecodeAll>
+double best_decode(const std::vector<uint8_t>& bytes, uint32_t alphabet, uint32_t contexts,
+                   const char* section, DecodeAll&& decode_all) {
+  double best = 1e9;
+  for (int run = 0; run < 15; ++run) {
+    const double t0 = osteon_bench::thread_seconds();
+    ByteReader in(bytes.data(), bytes.size());
+    SymbolDecoder dec;
+    if (!dec.init(in, alphabet, contexts, "bench", section).ok()) std::abort();
+    decode_all(dec);
+    if (!dec.finish("bench", section).ok()) std::abort();
+    best = std::min(best, osteon_bench::thread_seconds() - t0);
   }
-};
-
-double seconds_since(double t0) {
-  return Clock::now() - t0;
+  return best;
 }
 
 double entropy_bits(const std::vector<std::vector<uint64_t>>& counts) {
@@ -77,26 +78,19 @@ void connectivity_like(size_t n) {
     ++counts[previous][s];
     previous = s;
   }
-  const Clock::time_point t_enc = Clock::now();
+  const double t_enc = osteon_bench::thread_seconds();
   std::vector<uint8_t> bytes;
   enc.append_to(&bytes);
-  const double encode_s = seconds_since(t_enc);
+  const double encode_s = osteon_bench::thread_seconds() - t_enc;
 
-  double best = 1e9;
   uint64_t check = 0;
-  for (int run = 0; run < 15; ++run) {
-    const Clock::time_point t0 = Clock::now();
-    ByteReader in(bytes.data(), bytes.size());
-    SymbolDecoder dec;
-    if (!dec.init(in, 5, 5, "bench", "connectivity").ok()) std::abort();
+  const double best = best_decode(bytes, 5, 5, "connectivity", [&](SymbolDecoder& dec) {
     uint32_t context = 0;
     for (size_t i = 0; i < n; ++i) {
       context = dec.get(context);
       check += context;
     }
-    if (!dec.finish("bench", "connectivity").ok()) std::abort();
-    best = std::min(best, seconds_since(t0));
-  }
+  });
   report("CLERS", n, bytes.size(), entropy_bits(counts), best);
   std::printf("           encode %.2f ms (checksum %llu)\n", encode_s * 1e3,
               static_cast<unsigned long long>(check));
@@ -126,22 +120,15 @@ void geometry_like(size_t n) {
   }
   std::vector<uint8_t> bytes;
   enc.append_to(&bytes);
-  double best = 1e9;
   uint64_t check = 0;
-  for (int run = 0; run < 15; ++run) {
-    const Clock::time_point t0 = Clock::now();
-    ByteReader in(bytes.data(), bytes.size());
-    SymbolDecoder dec;
-    if (!dec.init(in, 24, 6, "bench", "geometry").ok()) std::abort();
+  const double best = best_decode(bytes, 24, 6, "geometry", [&](SymbolDecoder& dec) {
     uint32_t ctx = 0;
     for (size_t i = 0; i < n; ++i) {
       const uint32_t bucket = dec.get(ctx);
       check += dec.get_bits(static_cast<int>(bucket));
       ctx = std::min<uint32_t>(bucket, 5);
     }
-    if (!dec.finish("bench", "geometry").ok()) std::abort();
-    best = std::min(best, seconds_since(t0));
-  }
+  });
   report("residuals", n, bytes.size(), entropy_bits(counts) + static_cast<double>(raw_bits), best);
   std::printf("           (raw bits included in bytes and entropy; checksum %llu)\n",
               static_cast<unsigned long long>(check));

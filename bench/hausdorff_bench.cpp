@@ -51,6 +51,9 @@
 namespace {
 
 namespace fs = std::filesystem;
+using osteon_bench::fixed;
+using osteon_bench::grouped;
+using osteon_bench::sig;
 using Clock = std::chrono::steady_clock;
 
 struct Figures {
@@ -96,27 +99,8 @@ double cpu_seconds_children() {
          1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
-std::string fixed(double value, int decimals) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
 
-std::string sig(double value) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.6g", value);
-  return text;
-}
 
-/// 1234567 -> "1,234,567".
-std::string grouped(uint64_t value) {
-  std::string digits = std::to_string(value), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
 
 std::string percent(double ours, double theirs) {
   if (theirs == 0) return ours == 0 ? "0%" : "-";

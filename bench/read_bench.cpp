@@ -47,6 +47,7 @@
 namespace {
 
 namespace fs = std::filesystem;
+using osteon_bench::fixed;
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -54,11 +55,7 @@ constexpr unsigned kAssimpFlags =
     aiProcess_JoinIdenticalVertices | aiProcess_Triangulate | aiProcess_DropNormals;
 
 bool is_mesh_file(const fs::path& path) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return ext == ".stl" || ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".vtk" ||
-         ext == ".gltf" || ext == ".glb";
+  return osteon::format_from_extension(path.string()) != osteon::Format::kUnknown;
 }
 
 /// The mesh files of an input: itself, or every mesh file below a folder, in sorted order.
@@ -303,11 +300,6 @@ std::vector<Input> find_inputs(const fs::path& data, const fs::path& scratch) {
 
 // ---- the report ----------------------------------------------------------------------------
 
-std::string format_number(double value, int decimals) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
 
 struct Row {
   Input input;
@@ -331,7 +323,7 @@ std::string markdown(const std::vector<Row>& rows, double floor_mb) {
       const json& r = child->report;
       bool is_osteon = child == &row.osteon;
       double mb = r.value("bytes", 0.0) / 1e6;
-      md << "| " << row.input.label << " | " << row.input.format << " | " << format_number(mb, 2)
+      md << "| " << row.input.label << " | " << row.input.format << " | " << fixed(mb, 2)
          << " | ";
       if (!r.value("ok", false)) {
         std::string why = r.value("error", std::string("failed"));
@@ -345,17 +337,17 @@ std::string markdown(const std::vector<Row>& rows, double floor_mb) {
       double triangles = r["triangles"].get<double>();
       double mesh_mb = r["mesh_bytes"].get<double>() / 1e6;
       md << r["triangles"].get<uint64_t>() << " | " << (is_osteon ? "**osteon**" : "Assimp")
-         << " | " << r["vertices"].get<uint64_t>() << " | " << format_number(mb / seconds, 1)
-         << " | " << format_number(triangles / seconds / 1e6, 2) << " | "
-         << format_number(child->peak_rss_mb, 1) << " | "
-         << format_number(child->peak_rss_mb / mesh_mb, 2) << " | "
-         << format_number((child->peak_rss_mb - floor_mb) / mesh_mb, 2) << " | ";
+         << " | " << r["vertices"].get<uint64_t>() << " | " << fixed(mb / seconds, 1)
+         << " | " << fixed(triangles / seconds / 1e6, 2) << " | "
+         << fixed(child->peak_rss_mb, 1) << " | "
+         << fixed(child->peak_rss_mb / mesh_mb, 2) << " | "
+         << fixed((child->peak_rss_mb - floor_mb) / mesh_mb, 2) << " | ";
       if (is_osteon && assimp_speed > 0)
-        md << "**" << format_number(osteon_speed / assimp_speed, 1) << "x**";
+        md << "**" << fixed(osteon_speed / assimp_speed, 1) << "x**";
       md << " |\n";
     }
   }
-  md << "\nFloor: a child that reads nothing peaks at " << format_number(floor_mb, 1)
+  md << "\nFloor: a child that reads nothing peaks at " << fixed(floor_mb, 1)
      << " MB RSS; every peak above includes it.\n";
   return md.str();
 }

@@ -40,32 +40,16 @@
 namespace {
 
 namespace fs = std::filesystem;
+using osteon_bench::fixed;
+using osteon_bench::grouped;
+using osteon_bench::sig;
 using Clock = std::chrono::steady_clock;
 using osteon::Mesh;
 using osteon::RepeatOptions;
 using osteon::RepeatReport;
 
-std::string fixed(double v, int digits) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", digits, v);
-  return buf;
-}
 
-std::string sig(double v, int digits = 3) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
-  return buf;
-}
 
-std::string grouped(uint64_t v) {
-  const std::string digits = std::to_string(v);
-  std::string s;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) s += ',';
-    s += digits[i];
-  }
-  return s;
-}
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -173,7 +157,7 @@ std::string summary_row(const Run& run) {
       << " | " << r.groups.size() << " | " << r.members << " | " << mirrored << " | "
       << grouped(r.triangles_saved) << " ("
       << fixed(run.triangles ? 100.0 * double(r.triangles_saved) / double(run.triangles) : 0.0, 1)
-      << "%) | " << grouped(r.bytes_saved) << " | " << sig(r.largest_error) << " | "
+      << "%) | " << grouped(r.bytes_saved) << " | " << sig(r.largest_error, 3) << " | "
       << fixed(worst_ratio, 2) << " | " << grouped(c.pairs_considered) << " / "
       << grouped(c.pairs_descriptor) << " / " << grouped(c.pairs_aabb) << " / "
       << grouped(c.pairs_phi) << " (" << grouped(c.pairs_phi_evaluated) << ") / "
@@ -195,8 +179,8 @@ std::string listing(const Run& run, const std::vector<Mesh>& parts,
       const bool same = same_bone(m.part, g.prototype);
       if (!same) ++*odd;
       out << "| " << names[m.part] << " | " << names[g.prototype] << " | "
-          << (m.mirror ? "yes" : "") << " | " << fixed(m.scale, 6) << " | " << sig(m.hausdorff)
-          << " | " << sig(m.tolerance) << " | " << (same ? "pair" : "**differ**") << " |\n";
+          << (m.mirror ? "yes" : "") << " | " << fixed(m.scale, 6) << " | " << sig(m.hausdorff, 3)
+          << " | " << sig(m.tolerance, 3) << " | " << (same ? "pair" : "**differ**") << " |\n";
     }
   }
   (void)parts;
@@ -224,7 +208,7 @@ std::string by_file(const Run& run, const std::vector<std::string>& names) {
          "|---|---|---:|---:|---:|\n";
   for (const auto& [files, t] : tally) {
     out << "| " << files.first << " | " << files.second << " | " << t.count << " | " << t.mirrored
-        << " | " << sig(t.largest) << " |\n";
+        << " | " << sig(t.largest, 3) << " |\n";
   }
   return out.str();
 }
@@ -787,7 +771,7 @@ int main(int argc, char** argv) {
           << at_phi << " at Phi/Jaccard; " << measured
           << " are measured after ICP: symmetric Hausdorff "
           << (distances.empty() ? std::string("-")
-                                : "median " + sig(distances[distances.size() / 2]) + " mm")
+                                : "median " + sig(distances[distances.size() / 2], 3) + " mm")
           << "; " << count_below(0.25) << " within 0.25 mm, " << count_below(0.5)
           << " within 0.5 mm, " << count_below(1.0) << " within 1 mm, " << count_below(2.0)
           << " within 2 mm. Substitutions whose labels do not pair up: " << odd_default

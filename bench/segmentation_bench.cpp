@@ -204,12 +204,6 @@ json scores_json(const SegmentationScores& s) {
           {"lce", s.lce}};
 }
 
-/// This thread's CPU time: a run preempted on a shared machine does not count the other work.
-double thread_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 Row human_row(const std::vector<Model>& models) {
   Row row;
@@ -312,16 +306,11 @@ class CgalSdf {
 };
 #endif
 
-std::string fixed(double value, int decimals = 4) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
 
 std::string scores_cells(const SegmentationScores& s) {
-  return (s.cut_discrepancy ? fixed(*s.cut_discrepancy) : std::string("undefined")) + " | " +
-         fixed(s.hamming) + " | " + fixed(s.hamming_rm) + " | " + fixed(s.hamming_rf) + " | " +
-         fixed(s.one_minus_rand_index) + " | " + fixed(s.gce) + " | " + fixed(s.lce);
+  return (s.cut_discrepancy ? fixed(*s.cut_discrepancy, 4) : std::string("undefined")) + " | " +
+         fixed(s.hamming, 4) + " | " + fixed(s.hamming_rm, 4) + " | " + fixed(s.hamming_rf, 4) + " | " +
+         fixed(s.one_minus_rand_index, 4) + " | " + fixed(s.gce, 4) + " | " + fixed(s.lce, 4);
 }
 
 std::string markdown(const std::vector<Row>& rows, const std::vector<Model>& models) {
@@ -474,14 +463,10 @@ std::string speed_and_coverage(const fs::path& data, uint32_t stream_limit) {
   size_t files = 0, failed = 0, over = 0;
   double triangles = 0, components = 0, seconds = 0, largest = 0;
   std::string failures;
-  const std::vector<std::string> extensions = {".stl", ".obj", ".ply", ".off", ".vtk", ".glb",
-                                               ".gltf"};
   std::vector<fs::path> paths;
   for (const auto& entry : fs::recursive_directory_iterator(data)) {
     if (!entry.is_regular_file()) continue;
-    std::string ext = entry.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (std::find(extensions.begin(), extensions.end(), ext) != extensions.end()) {
+    if (osteon::format_from_extension(entry.path().string()) != osteon::Format::kUnknown) {
       paths.push_back(entry.path());
     }
   }
