@@ -27,6 +27,7 @@ void register_compare(CLI::App& app, std::function<int()>* run);
 void register_segeval(CLI::App& app, std::function<int()>* run);
 void register_repeats(CLI::App& app, std::function<int()>* run);
 void register_serve(CLI::App& app, std::function<int()>* run);
+void register_pack(CLI::App& app, std::function<int()>* run);
 
 /// Prints "osteon: error: <message>" to stderr and returns kExitError.
 int fail(const Status& status);

@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   register_segeval(app, &run);
   register_repeats(app, &run);
   register_serve(app, &run);
+  register_pack(app, &run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,75 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "osteon/status.hpp"
+
+// The whole pipeline in one call (issue 7, docs/DESIGN.md "The pipeline"): read every input ->
+// clean each part -> find repeated parts -> segment each prototype part into components no larger
+// than max_triangles -> encode each component -> write content-hashed component files and the
+// manifest (docs/FORMAT.md "Package (osteon pack)").
+
+namespace osteon {
+
+struct PackOptions {
+  /// The package folder; created when absent. Existing files other than the ones written are
+  /// left alone.
+  std::string output;
+  /// Quantization (EncodeOptions's meaning): bits per coordinate over each part's largest
+  /// bounding-box side, or, when precision > 0, the largest coordinate error in mesh units.
+  int bits = 14;
+  double precision = 0;
+  /// The tolerance of a repeat substitution in mesh units; 0: the codec's own bound
+  /// (RepeatOptions::tolerance).
+  double repeat_tolerance = 0;
+  /// The largest component, in triangles. Parts with at most this many triangles stay whole;
+  /// larger ones are segmented (segment() with SegmentOptions::max_triangles). 0: never segment.
+  uint32_t max_triangles = 20000;
+  /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
+  /// docs/FORMAT.md); empty: display names are the part names.
+  std::string names;
+  /// Worker threads for the repeat search; 0: every core.
+  int threads = 0;
+};
+
+/// Wall-clock milliseconds of each stage.
+struct PackTimings {
+  double read_ms = 0;
+  double clean_ms = 0;
+  double repeats_ms = 0;
+  double segment_ms = 0;
+  double encode_ms = 0;
+  double write_ms = 0;
+  double total_ms = 0;
+};
+
+struct PackReport {
+  uint64_t input_bytes = 0;   ///< sizes of the files the parts were read from
+  uint64_t output_bytes = 0;  ///< component files plus manifest.json
+  size_t parts = 0;
+  size_t prototypes = 0;  ///< parts whose components are stored (the others are instances)
+  size_t components = 0;
+  size_t files = 0;  ///< distinct component files (equal bytes share one file)
+  size_t instances = 0;
+  uint64_t triangles_in = 0;   ///< over all parts after cleaning
+  uint64_t triangles_out = 0;  ///< over the stored components
+  std::string manifest;        ///< path of manifest.json
+  PackTimings timings;
+};
+
+/// Packs the meshes read from `inputs` (files or folders, read_path) into options.output.
+/// Deterministic: the same inputs and options give byte-identical files (no timestamps; parts in
+/// input order, then read order). Nothing is written until every stage has succeeded; the
+/// manifest is written last, each file through a temporary file and a rename.
+/// Errors: those of read_path, segment, find_repeats and encode (naming the file); kInvalidData
+/// when no part has triangles or the names file does not parse; kInvalidArgument for an empty
+/// input list or output, or bits/precision out of range; kIoError when writing fails.
+/// Known approximations: a repeat's error adds the sampled (lower-bound) Hausdorff tolerance it
+/// was accepted under to the quantization bound.
+Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options);
+
+}  // namespace osteon

@@ -1,0 +1,462 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "osteon/pack.hpp"
+
+#include <openssl/evp.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "osteon/codec.hpp"
+#include "osteon/io.hpp"
+#include "osteon/mesh.hpp"
+#include "osteon/repeats.hpp"
+#include "osteon/segment.hpp"
+
+// Based on: FIPS 180-4 SHA-256 (through OpenSSL's EVP interface) for content-addressed file
+// names, as static hosts and CDNs cache immutable hashed assets.
+
+namespace osteon {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Matrix = std::array<double, 16>;
+constexpr Matrix kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+/// Lower-case hex SHA-256 of `bytes`.
+std::string sha256_hex(const std::vector<uint8_t>& bytes) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  EVP_Digest(bytes.data(), bytes.size(), digest, &length, EVP_sha256(), nullptr);
+  static const char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (unsigned int i = 0; i < length; ++i) {
+    out += kHex[digest[i] >> 4];
+    out += kHex[digest[i] & 15];
+  }
+  return out;
+}
+
+/// The file stem of a part name or path: the last path component, without the extension and
+/// without a "/node" suffix's parent. "bones/FJ43_x.glb" -> "FJ43_x".
+std::string stem_of(const std::string& name) {
+  std::string s = name;
+  const size_t slash = s.find_last_of("/\\");
+  if (slash != std::string::npos) s = s.substr(slash + 1);
+  const size_t dot = s.find_last_of('.');
+  if (dot != std::string::npos && dot > 0) s = s.substr(0, dot);
+  return s;
+}
+
+struct DisplayName {
+  std::string name;
+  std::string group;
+};
+
+/// Splits one CSV line (fields may be double-quoted, "" an escaped quote).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        fields.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        fields.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      fields.emplace_back();
+    } else if (c != '\r') {
+      fields.back() += c;
+    }
+  }
+  return fields;
+}
+
+/// Reads a names file: a JSON array of objects {filename|file|name, label|display_name, group},
+/// a JSON object {stem: "display name"} or {stem: {display_name|label, group}}, or a CSV of
+/// stem,display_name[,group] lines (a first line starting with "file" or "stem" is a header).
+Result<std::map<std::string, DisplayName>> read_names(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return error(ErrorCode::kIoError, path, "cannot open the names file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  std::map<std::string, DisplayName> names;
+  size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && (text[first] == '[' || text[first] == '{')) {
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+    if (j.is_discarded()) return error(ErrorCode::kInvalidData, path, "not valid JSON");
+    auto text_of = [](const nlohmann::json& o, std::initializer_list<const char*> keys) {
+      for (const char* key : keys) {
+        auto it = o.find(key);
+        if (it != o.end() && it->is_string()) return it->get<std::string>();
+      }
+      return std::string();
+    };
+    if (j.is_array()) {
+      for (const nlohmann::json& entry : j) {
+        if (!entry.is_object()) continue;
+        const std::string file = text_of(entry, {"filename", "file", "stem", "name"});
+        if (file.empty()) continue;
+        names[stem_of(file)] = {text_of(entry, {"label", "display_name", "name"}),
+                                text_of(entry, {"group"})};
+      }
+    } else {
+      for (auto it = j.begin(); it != j.end(); ++it) {
+        if (it->is_string()) {
+          names[stem_of(it.key())] = {it->get<std::string>(), {}};
+        } else if (it->is_object()) {
+          names[stem_of(it.key())] = {text_of(*it, {"display_name", "label", "name"}),
+                                      text_of(*it, {"group"})};
+        }
+      }
+    }
+    return names;
+  }
+  std::istringstream lines(text);
+  std::string line;
+  bool first_line = true;
+  while (std::getline(lines, line)) {
+    if (line.empty() || line == "\r") continue;
+    std::vector<std::string> f = csv_fields(line);
+    if (first_line) {
+      first_line = false;
+      if (f[0].rfind("file", 0) == 0 || f[0].rfind("stem", 0) == 0) continue;
+    }
+    if (f.size() < 2) return error(ErrorCode::kInvalidData, path, "a CSV line needs 2 fields");
+    names[stem_of(f[0])] = {f[1], f.size() > 2 ? f[2] : std::string()};
+  }
+  return names;
+}
+
+/// The triangles of `mesh` labelled `label`, with only their vertices (in first-use order).
+Mesh extract(const Mesh& mesh, const std::vector<uint32_t>& labels, uint32_t label) {
+  Mesh out;
+  out.name = mesh.name;
+  out.source = mesh.source;
+  out.unit = mesh.unit;
+  out.unit_source = mesh.unit_source;
+  std::vector<uint32_t> remap(mesh.positions.size(), UINT32_MAX);
+  for (size_t t = 0; t < labels.size(); ++t) {
+    if (labels[t] != label) continue;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = mesh.indices[3 * t + k];
+      if (remap[v] == UINT32_MAX) {
+        remap[v] = static_cast<uint32_t>(out.positions.size());
+        out.positions.push_back(mesh.positions[v]);
+      }
+      out.indices.push_back(remap[v]);
+    }
+  }
+  out.stored_vertices = out.positions.size();
+  return out;
+}
+
+Vec3 apply(const Matrix& m, const Vec3& p) {
+  return {static_cast<float>(m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12]),
+          static_cast<float>(m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13]),
+          static_cast<float>(m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14])};
+}
+
+/// The world box of `box` under `m` (its eight corners transformed).
+Aabb transform_box(const Aabb& box, const Matrix& m) {
+  Aabb out;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p{(c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y,
+                 (c & 4) ? box.max.z : box.min.z};
+    expand(out, apply(m, p));
+  }
+  return out;
+}
+
+/// The largest face area of a box: its projected area seen along the best axis.
+double projected_area(const Aabb& box) {
+  const double dx = box.max.x - box.min.x, dy = box.max.y - box.min.y, dz = box.max.z - box.min.z;
+  return std::max({dx * dy, dy * dz, dx * dz});
+}
+
+nlohmann::json vec_json(const Vec3& v) {
+  return nlohmann::json::array({v.x, v.y, v.z});
+}
+nlohmann::json box_json(const Aabb& box) {
+  return {{"min", vec_json(box.min)}, {"max", vec_json(box.max)}};
+}
+
+struct Component {
+  std::string id;
+  std::string file;  ///< "c/<hash24>.ostm"
+  std::vector<uint8_t> bytes;
+  size_t triangles = 0;
+  size_t vertices = 0;
+  Aabb bounds;  ///< in the prototype's frame, of the input positions
+  double error_bound = 0;
+  double stream_area = 0;  ///< summed projected area of its instances' world boxes
+};
+
+struct Instance {
+  size_t part = 0;
+  size_t component = 0;
+  Matrix matrix = kIdentity;
+  bool mirror = false;
+  double error_bound = 0;
+};
+
+uint64_t file_size_or_zero(const std::string& path) {
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  return ec ? 0 : size;
+}
+
+}  // namespace
+
+Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options) {
+  const auto start_total = Clock::now();
+  PackReport report;
+  if (inputs.empty()) return error(ErrorCode::kInvalidArgument, "pack", "no input given");
+  if (options.output.empty()) {
+    return error(ErrorCode::kInvalidArgument, "pack", "no output folder given");
+  }
+  if (options.bits < 8 || options.bits > 24) {
+    return error(ErrorCode::kInvalidArgument, "pack", "bits must be in 8..24");
+  }
+  if (!(options.precision >= 0) || !std::isfinite(options.precision) ||
+      !(options.repeat_tolerance >= 0) || !std::isfinite(options.repeat_tolerance)) {
+    return error(ErrorCode::kInvalidArgument, "pack",
+                 "precision and repeat tolerance must be finite and >= 0");
+  }
+
+  // Read.
+  auto stage = Clock::now();
+  std::vector<Mesh> parts;
+  for (const std::string& input : inputs) {
+    OSTEON_ASSIGN_OR_RETURN(Scene scene, read_path(input));
+    for (Mesh& part : scene.parts) {
+      if (part.source.empty()) part.source = input;
+      parts.push_back(std::move(part));
+    }
+  }
+  std::set<std::string> sources;
+  for (const Mesh& part : parts) sources.insert(part.source);
+  for (const std::string& source : sources) report.input_bytes += file_size_or_zero(source);
+  std::map<std::string, DisplayName> names;
+  if (!options.names.empty()) {
+    OSTEON_ASSIGN_OR_RETURN(names, read_names(options.names));
+  }
+  report.timings.read_ms = ms_since(stage);
+
+  // Clean: degenerate triangles and unreferenced vertices go; parts left empty are dropped.
+  stage = Clock::now();
+  std::vector<Mesh> kept;
+  for (Mesh& part : parts) {
+    remove_degenerate_triangles(part);
+    remove_unreferenced_vertices(part);
+    if (part.triangle_count() > 0) kept.push_back(std::move(part));
+  }
+  parts = std::move(kept);
+  if (parts.empty()) {
+    return error(ErrorCode::kInvalidData, inputs.front(), "no part has triangles");
+  }
+  report.parts = parts.size();
+  for (const Mesh& part : parts) report.triangles_in += part.triangle_count();
+  report.timings.clean_ms = ms_since(stage);
+
+  // Repeats, bone by bone: each member part is drawn as its prototype's components.
+  stage = Clock::now();
+  RepeatOptions repeat_options;
+  repeat_options.tolerance = options.repeat_tolerance;
+  repeat_options.bits = options.bits;
+  repeat_options.precision = options.precision;
+  repeat_options.threads = options.threads;
+  OSTEON_ASSIGN_OR_RETURN(RepeatReport repeats, find_repeats(parts, repeat_options));
+  std::vector<size_t> prototype_of(parts.size());
+  std::vector<Matrix> matrix_of(parts.size(), kIdentity);
+  std::vector<bool> mirror_of(parts.size(), false);
+  std::vector<double> repeat_error(parts.size(), 0.0);
+  for (size_t i = 0; i < parts.size(); ++i) prototype_of[i] = i;
+  for (const RepeatGroup& group : repeats.groups) {
+    for (const RepeatMember& member : group.members) {
+      prototype_of[member.part] = group.prototype;
+      matrix_of[member.part] = member.matrix;
+      mirror_of[member.part] = member.mirror;
+      repeat_error[member.part] = member.tolerance;
+    }
+  }
+  report.timings.repeats_ms = ms_since(stage);
+
+  // Segment each prototype part into components, and encode them on the part's own grid (so
+  // the components of one part meet without cracks).
+  std::vector<Component> components;
+  std::vector<std::vector<size_t>> components_of(parts.size());
+  for (size_t p = 0; p < parts.size(); ++p) {
+    if (prototype_of[p] != p) continue;
+    ++report.prototypes;
+    const Mesh& part = parts[p];
+    stage = Clock::now();
+    std::vector<Mesh> pieces;
+    if (options.max_triangles == 0 || part.triangle_count() <= options.max_triangles) {
+      pieces.push_back(part);
+    } else {
+      SegmentOptions segment_options;
+      segment_options.max_triangles = options.max_triangles;
+      OSTEON_ASSIGN_OR_RETURN(Segmentation seg, segment(part, segment_options));
+      for (uint32_t label = 0; label < seg.count; ++label) {
+        Mesh piece = extract(part, seg.labels, label);
+        if (piece.triangle_count() > 0) pieces.push_back(std::move(piece));
+      }
+    }
+    report.timings.segment_ms += ms_since(stage);
+
+    stage = Clock::now();
+    const Aabb part_box = bounding_box(part);
+    const double side = std::max({part_box.max.x - part_box.min.x, part_box.max.y - part_box.min.y,
+                                  part_box.max.z - part_box.min.z});
+    EncodeOptions encode_options;
+    encode_options.bits = options.bits;
+    encode_options.precision = options.precision;
+    encode_options.grid.origin = part_box.min;
+    encode_options.grid.step = options.precision > 0
+                                   ? 2 * options.precision
+                                   : std::max(side, 1e-6) / ((1 << options.bits) - 1);
+    for (Mesh& piece : pieces) {
+      EncodeReport encoded;
+      OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, encode(piece, encode_options, &encoded));
+      Component c;
+      c.id = "c";
+      c.id += std::to_string(components.size());
+      c.file = "c/";
+      c.file += sha256_hex(bytes).substr(0, 24);
+      c.file += ".ostm";
+      c.bytes = std::move(bytes);
+      c.triangles = encoded.triangles;
+      c.vertices = encoded.vertices;
+      c.bounds = bounding_box(piece);
+      // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
+      c.error_bound = std::sqrt(3.0) / 2 * encoded.grid_step;
+      report.triangles_out += c.triangles;
+      components_of[p].push_back(components.size());
+      components.push_back(std::move(c));
+    }
+    report.timings.encode_ms += ms_since(stage);
+  }
+
+  // Instances: every part draws each of its prototype's components with its matrix.
+  std::vector<Instance> instances;
+  Aabb world;
+  for (size_t p = 0; p < parts.size(); ++p) {
+    expand(world, bounding_box(parts[p]));
+    for (size_t c : components_of[prototype_of[p]]) {
+      Instance instance;
+      instance.part = p;
+      instance.component = c;
+      instance.matrix = matrix_of[p];
+      instance.mirror = mirror_of[p];
+      instance.error_bound = components[c].error_bound + repeat_error[p];
+      components[c].stream_area +=
+          projected_area(transform_box(components[c].bounds, instance.matrix));
+      instances.push_back(instance);
+    }
+  }
+  std::vector<size_t> stream(components.size());
+  for (size_t i = 0; i < stream.size(); ++i) stream[i] = i;
+  std::stable_sort(stream.begin(), stream.end(), [&](size_t a, size_t b) {
+    return components[a].stream_area > components[b].stream_area;
+  });
+
+  // The manifest.
+  nlohmann::json manifest;
+  manifest["format"] = "osteon-package";
+  manifest["version"] = 1;
+  manifest["unit"] = unit_name(parts.front().unit);
+  manifest["bounds"] = box_json(world);
+  nlohmann::json parts_json = nlohmann::json::array();
+  for (size_t p = 0; p < parts.size(); ++p) {
+    const std::string stem = stem_of(parts[p].name);
+    auto named = names.find(stem);
+    DisplayName display{parts[p].name, ""};
+    if (named != names.end()) {
+      if (!named->second.name.empty()) display.name = named->second.name;
+      display.group = named->second.group;
+    }
+    parts_json.push_back({{"id", p},
+                          {"name", parts[p].name},
+                          {"display_name", display.name},
+                          {"group", display.group},
+                          {"source", std::filesystem::path(parts[p].source).filename().string()},
+                          {"triangles", parts[p].triangle_count()},
+                          {"prototype", prototype_of[p]}});
+  }
+  manifest["parts"] = std::move(parts_json);
+  nlohmann::json components_json = nlohmann::json::array();
+  for (const Component& c : components) {
+    components_json.push_back({{"id", c.id},
+                               {"file", c.file},
+                               {"bytes", c.bytes.size()},
+                               {"triangles", c.triangles},
+                               {"vertices", c.vertices},
+                               {"bounds", box_json(c.bounds)},
+                               {"error_bound", c.error_bound}});
+  }
+  manifest["components"] = std::move(components_json);
+  nlohmann::json instances_json = nlohmann::json::array();
+  for (const Instance& instance : instances) {
+    instances_json.push_back({{"part", instance.part},
+                              {"component", components[instance.component].id},
+                              {"matrix", instance.matrix},
+                              {"mirror", instance.mirror},
+                              {"error_bound", instance.error_bound}});
+  }
+  manifest["instances"] = std::move(instances_json);
+  nlohmann::json order = nlohmann::json::array();
+  for (size_t c : stream) order.push_back(components[c].id);
+  manifest["stream_order"] = std::move(order);
+  const std::string manifest_text = manifest.dump(1) + "\n";
+
+  // Write: component files (each once), then the manifest.
+  stage = Clock::now();
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(options.output) / "c", ec);
+  if (ec) {
+    return error(ErrorCode::kIoError, options.output, "cannot create the folder: " + ec.message());
+  }
+  std::set<std::string> written;
+  for (const Component& c : components) {
+    if (!written.insert(c.file).second) continue;
+    report.output_bytes += c.bytes.size();
+    const std::string path = (std::filesystem::path(options.output) / c.file).string();
+    OSTEON_RETURN_IF_ERROR(write_file_atomic(path, c.bytes.data(), c.bytes.size()));
+  }
+  report.manifest = (std::filesystem::path(options.output) / "manifest.json").string();
+  OSTEON_RETURN_IF_ERROR(
+      write_file_atomic(report.manifest, manifest_text.data(), manifest_text.size()));
+  report.output_bytes += manifest_text.size();
+  report.timings.write_ms = ms_since(stage);
+
+  report.components = components.size();
+  report.files = written.size();
+  report.instances = instances.size();
+  report.timings.total_ms = ms_since(start_total);
+  return report;
+}
+
+}  // namespace osteon

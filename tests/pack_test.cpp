@@ -1,0 +1,226 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "osteon/pack.hpp"
+
+#include <gtest/gtest.h>
+#include <openssl/evp.h>
+
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "fixtures.hpp"
+#include "osteon/codec.hpp"
+#include "osteon/hausdorff.hpp"
+#include "osteon/io.hpp"
+#include "osteon/phantom.hpp"
+#include "osteon/repeats.hpp"
+
+namespace osteon {
+namespace {
+
+namespace fs = std::filesystem;
+using test::read_bytes;
+using test::run_cli;
+using test::scratch_dir;
+
+std::string sha256_hex(const std::vector<uint8_t>& bytes) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  EVP_Digest(bytes.data(), bytes.size(), digest, &length, EVP_sha256(), nullptr);
+  static const char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (unsigned int i = 0; i < length; ++i) {
+    out += kHex[digest[i] >> 4];
+    out += kHex[digest[i] & 15];
+  }
+  return out;
+}
+
+/// The phantom skeleton written as one PLY per part into a fresh folder.
+std::string write_phantom(int detail = 2) {
+  PhantomOptions options;
+  options.detail = detail;
+  const Phantom phantom = make_phantom(options);
+  const std::string dir = scratch_dir() + "/phantom";
+  fs::create_directories(dir);
+  for (const Mesh& part : phantom.scene.parts) {
+    EXPECT_TRUE(write_mesh(dir + "/" + part.name + ".ply", part).ok()) << part.name;
+  }
+  return dir;
+}
+
+nlohmann::json read_manifest(const std::string& dir) {
+  const std::vector<uint8_t> bytes = read_bytes(dir + "/manifest.json");
+  return nlohmann::json::parse(bytes.begin(), bytes.end());
+}
+
+/// Every regular file below `dir`, relative path -> bytes.
+std::map<std::string, std::vector<uint8_t>> tree(const std::string& dir) {
+  std::map<std::string, std::vector<uint8_t>> files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) {
+      files[fs::relative(entry.path(), dir).string()] = read_bytes(entry.path().string());
+    }
+  }
+  return files;
+}
+
+TEST(Pack, PhantomPackageReproducesEveryPart) {
+  const std::string input = write_phantom();
+  const std::string out = scratch_dir() + "/package";
+  PackOptions options;
+  options.output = out;
+  options.max_triangles = 600;  // the phantom's bones have about 1k triangles: segment them
+  Result<PackReport> result = pack({input}, options);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  const PackReport& report = result.value();
+
+  const nlohmann::json manifest = read_manifest(out);
+  EXPECT_EQ(manifest["format"], "osteon-package");
+  EXPECT_EQ(manifest["version"], 1);
+  EXPECT_EQ(manifest["parts"].size(), report.parts);
+  EXPECT_EQ(manifest["components"].size(), report.components);
+  EXPECT_EQ(manifest["instances"].size(), report.instances);
+  EXPECT_EQ(manifest["stream_order"].size(), report.components);
+  EXPECT_LT(report.prototypes, report.parts) << "the phantom has copies: some parts are instances";
+  EXPECT_GT(report.components, report.prototypes) << "max_triangles 600 splits the bones";
+
+  // Component files: present, of the stated size and named by their hash; decoded.
+  std::map<std::string, Mesh> decoded;
+  std::map<std::string, double> error_bound;
+  for (const nlohmann::json& c : manifest["components"]) {
+    const std::string file = c["file"];
+    const std::vector<uint8_t> bytes = read_bytes(out + "/" + file);
+    ASSERT_EQ(bytes.size(), c["bytes"].get<size_t>()) << file;
+    EXPECT_EQ(file, "c/" + sha256_hex(bytes).substr(0, 24) + ".ostm");
+    EXPECT_LE(c["triangles"].get<size_t>(), options.max_triangles);
+    Result<Mesh> mesh = decode(bytes.data(), bytes.size(), file);
+    ASSERT_TRUE(mesh.ok()) << mesh.status().message();
+    EXPECT_EQ(mesh->triangle_count(), c["triangles"].get<size_t>());
+    decoded[c["id"]] = std::move(mesh.value());
+  }
+
+  // Stream order: decreasing summed projected area is not checkable from the manifest alone,
+  // but it is a permutation of the component ids.
+  std::vector<std::string> order = manifest["stream_order"];
+  std::sort(order.begin(), order.end());
+  std::vector<std::string> ids;
+  for (const auto& [id, mesh] : decoded) ids.push_back(id);
+  EXPECT_EQ(order, ids);
+
+  // Each part drawn from its instances: the same triangle count, within the error bound.
+  Result<Scene> scene = read_path(input);
+  ASSERT_TRUE(scene.ok());
+  std::map<std::string, const Mesh*> by_name;
+  for (Mesh& part : scene->parts) {
+    remove_degenerate_triangles(part);
+    remove_unreferenced_vertices(part);
+    by_name[part.name] = &part;
+  }
+  std::vector<Scene> drawn(manifest["parts"].size());
+  std::vector<double> bound(manifest["parts"].size(), 0);
+  for (const nlohmann::json& instance : manifest["instances"]) {
+    const size_t part = instance["part"];
+    ASSERT_LT(part, drawn.size());
+    std::array<double, 16> matrix = instance["matrix"];
+    drawn[part].parts.push_back(transform_mesh(decoded.at(instance["component"]), matrix));
+    bound[part] = std::max(bound[part], instance["error_bound"].get<double>());
+  }
+  size_t measured = 0;
+  for (size_t p = 0; p < drawn.size(); ++p) {
+    const std::string name = manifest["parts"][p]["name"];
+    ASSERT_TRUE(by_name.count(name)) << name;
+    const Mesh& original = *by_name[name];
+    Mesh merged = merge_parts(std::move(drawn[p]));
+    EXPECT_EQ(merged.triangle_count(), original.triangle_count()) << name;
+    if (p % 3 != 0) continue;  // a third of the parts: Hausdorff takes a while
+    HausdorffOptions h;
+    h.samples_per_face = 2;
+    Result<HausdorffReport> distance = hausdorff(original, merged, h);
+    ASSERT_TRUE(distance.ok()) << distance.status().message();
+    // The repeat tolerance is a sampled bound: allow 10% over it.
+    EXPECT_LE(distance->symmetric.max, 1.1 * bound[p] + 1e-6) << name;
+    ++measured;
+  }
+  EXPECT_GT(measured, 2u);
+}
+
+TEST(Pack, SameInputGivesIdenticalBytes) {
+  const std::string input = write_phantom();
+  const std::string dir = scratch_dir();
+  PackOptions options;
+  options.output = dir + "/a";
+  ASSERT_TRUE(pack({input}, options).ok());
+  options.output = dir + "/b";
+  ASSERT_TRUE(pack({input}, options).ok());
+  const auto a = tree(dir + "/a");
+  const auto b = tree(dir + "/b");
+  EXPECT_GT(a.size(), 1u);
+  EXPECT_TRUE(a == b) << "two packs of the same input differ";
+}
+
+TEST(Pack, NamesFromCsvAndJson) {
+  const std::string input = write_phantom();
+  const std::string dir = scratch_dir();
+  test::write_bytes(dir + "/names.csv",
+                    "file,display_name,group\nfemur_l,\"Left femur, bone\",legs\n");
+  PackOptions options;
+  options.output = dir + "/csv";
+  options.names = dir + "/names.csv";
+  ASSERT_TRUE(pack({input}, options).ok());
+  bool found = false;
+  const nlohmann::json from_csv = read_manifest(options.output);
+  for (const nlohmann::json& part : from_csv["parts"]) {
+    if (part["name"] != "femur_l") {
+      EXPECT_EQ(part["display_name"], part["name"]);
+      continue;
+    }
+    found = true;
+    EXPECT_EQ(part["display_name"], "Left femur, bone");
+    EXPECT_EQ(part["group"], "legs");
+  }
+  EXPECT_TRUE(found) << "the phantom has no femur_l";
+
+  // BodyParts3D's meta.json shape: an array of {filename, label, group}.
+  test::write_bytes(
+      dir + "/meta.json",
+      R"([{"filename": "bones/femur_l.glb", "label": "Left femur", "group": "bones"}])");
+  options.output = dir + "/json";
+  options.names = dir + "/meta.json";
+  ASSERT_TRUE(pack({input}, options).ok());
+  const nlohmann::json from_json = read_manifest(options.output);
+  for (const nlohmann::json& part : from_json["parts"]) {
+    if (part["name"] == "femur_l") {
+      EXPECT_EQ(part["display_name"], "Left femur");
+    }
+  }
+}
+
+TEST(Pack, CliSummaryAndBadInput) {
+  const std::string input = write_phantom();
+  const std::string out = scratch_dir() + "/cli";
+  test::CliRun run = run_cli("pack " + input + " -o " + out + " --bits 12 --json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const nlohmann::json summary = nlohmann::json::parse(run.out);
+  EXPECT_GT(summary["input_bytes"].get<uint64_t>(), summary["output_bytes"].get<uint64_t>());
+  EXPECT_GT(summary["instances"].get<size_t>(), 0u);
+  EXPECT_TRUE(summary["time_ms"].contains("encode"));
+  EXPECT_TRUE(fs::exists(out + "/manifest.json"));
+
+  const std::string missing_out = scratch_dir() + "/never";
+  test::CliRun missing = run_cli("pack " + input + " /nonexistent/femur.stl -o " + missing_out);
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.err.find("osteon: error:"), std::string::npos) << missing.err;
+  EXPECT_FALSE(fs::exists(missing_out)) << "nothing is written when an input fails";
+
+  test::CliRun both =
+      run_cli("pack " + input + " -o " + missing_out + " --bits 12 --precision 0.1");
+  EXPECT_EQ(both.status, 2);
+}
+
+}  // namespace
+}  // namespace osteon
