@@ -5,7 +5,10 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <chrono>
+#include <cstdlib>
+#include <limits>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,7 +17,12 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <tbb/parallel_for.h>
+#include <tbb/info.h>
+#include <tbb/task_arena.h>
 
 #include "osteon/codec.hpp"
 #include "osteon/io.hpp"
@@ -196,8 +204,28 @@ double projected_area(const Aabb& box) {
   return std::max({dx * dy, dy * dz, dx * dz});
 }
 
+/// `value` as the float nearest it, printed shortest: bounds and matrices are drawn in float, and
+/// the manifest stays compact (12.3456, not 12.345600128173828).
+double as_float(double value) {
+  char text[32];
+  const auto [end, ec] = std::to_chars(text, text + sizeof(text), static_cast<float>(value));
+  return ec == std::errc() ? std::strtod(std::string(text, end).c_str(), nullptr) : value;
+}
+
+/// A bound rounded up to a float: never below `value`.
+double bound_up(double value) {
+  float f = static_cast<float>(value);
+  if (static_cast<double>(f) < value) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return as_float(f);
+}
+
 nlohmann::json vec_json(const Vec3& v) {
-  return nlohmann::json::array({v.x, v.y, v.z});
+  return nlohmann::json::array({as_float(v.x), as_float(v.y), as_float(v.z)});
+}
+nlohmann::json matrix_json(const Matrix& m) {
+  nlohmann::json out = nlohmann::json::array();
+  for (double v : m) out.push_back(as_float(v));
+  return out;
 }
 nlohmann::json box_json(const Aabb& box) {
   return {{"min", vec_json(box.min)}, {"max", vec_json(box.max)}};
@@ -222,6 +250,40 @@ struct Instance {
   double error_bound = 0;
 };
 
+/// The viewer's files: (path relative to `root`, bytes), sorted by path, so packages are
+/// byte-identical whatever order the file system lists them in.
+Result<std::vector<std::pair<std::string, std::vector<uint8_t>>>> read_viewer(
+    const std::string& root) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) {
+    return error(ErrorCode::kIoError, root,
+                 "the viewer folder does not exist (build it: cd web && npm ci && npm run "
+                 "build:viewer)");
+  }
+  std::vector<std::pair<std::string, std::vector<uint8_t>>> files;
+  for (fs::recursive_directory_iterator it(root, ec), end; !ec && it != end; it.increment(ec)) {
+    if (!it->is_regular_file(ec)) continue;
+    const std::string relative = fs::relative(it->path(), root, ec).generic_string();
+    if (relative == "manifest.json" || relative.rfind("c/", 0) == 0) {
+      return error(ErrorCode::kInvalidArgument, it->path().string(),
+                   "a viewer file may not be named manifest.json or live under c/ (the "
+                   "package's own files)");
+    }
+    std::ifstream in(it->path(), std::ios::binary);
+    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof()) {
+      return error(ErrorCode::kIoError, it->path().string(), "cannot read the viewer file");
+    }
+    files.emplace_back(relative, std::move(bytes));
+  }
+  if (ec) return error(ErrorCode::kIoError, root, "cannot list the viewer folder: " + ec.message());
+  if (files.empty()) return error(ErrorCode::kIoError, root, "the viewer folder is empty");
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 uint64_t file_size_or_zero(const std::string& path) {
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
@@ -229,6 +291,18 @@ uint64_t file_size_or_zero(const std::string& path) {
 }
 
 }  // namespace
+
+const char* stage_name(PackStage stage) {
+  switch (stage) {
+    case PackStage::kRead: return "read";
+    case PackStage::kClean: return "clean";
+    case PackStage::kRepeats: return "repeats";
+    case PackStage::kSegment: return "segment";
+    case PackStage::kEncode: return "encode";
+    case PackStage::kWrite: return "write";
+  }
+  return "?";
+}
 
 Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options) {
   const auto start_total = Clock::now();
@@ -245,34 +319,49 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
     return error(ErrorCode::kInvalidArgument, "pack",
                  "precision and repeat tolerance must be finite and >= 0");
   }
+  auto progress = [&](PackStage stage, uint64_t done, uint64_t total) {
+    if (options.progress) options.progress(stage, done, total);
+  };
+  // More threads than cores only makes TBB warn; the output does not depend on the count.
+  tbb::task_arena arena(options.threads > 0
+                            ? std::min(options.threads, tbb::info::default_concurrency())
+                            : tbb::task_arena::automatic);
 
-  // Read.
+  // Read (and the viewer's files, so that a missing viewer fails before any work).
   auto stage = Clock::now();
-  std::vector<Mesh> parts;
-  for (const std::string& input : inputs) {
-    OSTEON_ASSIGN_OR_RETURN(Scene scene, read_path(input));
-    for (Mesh& part : scene.parts) {
-      if (part.source.empty()) part.source = input;
-      parts.push_back(std::move(part));
-    }
+  std::vector<std::pair<std::string, std::vector<uint8_t>>> viewer_files;
+  if (!options.viewer.empty()) {
+    OSTEON_ASSIGN_OR_RETURN(viewer_files, read_viewer(options.viewer));
   }
-  std::set<std::string> sources;
-  for (const Mesh& part : parts) sources.insert(part.source);
-  for (const std::string& source : sources) report.input_bytes += file_size_or_zero(source);
   std::map<std::string, DisplayName> names;
   if (!options.names.empty()) {
     OSTEON_ASSIGN_OR_RETURN(names, read_names(options.names));
   }
+  std::vector<Mesh> parts;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    progress(PackStage::kRead, i, inputs.size());
+    OSTEON_ASSIGN_OR_RETURN(Scene scene, read_path(inputs[i]));
+    for (Mesh& part : scene.parts) {
+      if (part.source.empty()) part.source = inputs[i];
+      parts.push_back(std::move(part));
+    }
+  }
+  progress(PackStage::kRead, inputs.size(), inputs.size());
+  std::set<std::string> sources;
+  for (const Mesh& part : parts) sources.insert(part.source);
+  for (const std::string& source : sources) report.input_bytes += file_size_or_zero(source);
   report.timings.read_ms = ms_since(stage);
 
   // Clean: degenerate triangles and unreferenced vertices go; parts left empty are dropped.
   stage = Clock::now();
   std::vector<Mesh> kept;
-  for (Mesh& part : parts) {
-    remove_degenerate_triangles(part);
-    remove_unreferenced_vertices(part);
-    if (part.triangle_count() > 0) kept.push_back(std::move(part));
+  for (size_t i = 0; i < parts.size(); ++i) {
+    progress(PackStage::kClean, i, parts.size());
+    remove_degenerate_triangles(parts[i]);
+    remove_unreferenced_vertices(parts[i]);
+    if (parts[i].triangle_count() > 0) kept.push_back(std::move(parts[i]));
   }
+  progress(PackStage::kClean, parts.size(), parts.size());
   parts = std::move(kept);
   if (parts.empty()) {
     return error(ErrorCode::kInvalidData, inputs.front(), "no part has triangles");
@@ -283,82 +372,129 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
 
   // Repeats, bone by bone: each member part is drawn as its prototype's components.
   stage = Clock::now();
-  RepeatOptions repeat_options;
-  repeat_options.tolerance = options.repeat_tolerance;
-  repeat_options.bits = options.bits;
-  repeat_options.precision = options.precision;
-  repeat_options.threads = options.threads;
-  OSTEON_ASSIGN_OR_RETURN(RepeatReport repeats, find_repeats(parts, repeat_options));
   std::vector<size_t> prototype_of(parts.size());
   std::vector<Matrix> matrix_of(parts.size(), kIdentity);
   std::vector<bool> mirror_of(parts.size(), false);
   std::vector<double> repeat_error(parts.size(), 0.0);
   for (size_t i = 0; i < parts.size(); ++i) prototype_of[i] = i;
-  for (const RepeatGroup& group : repeats.groups) {
-    for (const RepeatMember& member : group.members) {
-      prototype_of[member.part] = group.prototype;
-      matrix_of[member.part] = member.matrix;
-      mirror_of[member.part] = member.mirror;
-      repeat_error[member.part] = member.tolerance;
-    }
-  }
-  report.timings.repeats_ms = ms_since(stage);
-
-  // Segment each prototype part into components, and encode them on the part's own grid (so
-  // the components of one part meet without cracks).
-  std::vector<Component> components;
-  std::vector<std::vector<size_t>> components_of(parts.size());
-  for (size_t p = 0; p < parts.size(); ++p) {
-    if (prototype_of[p] != p) continue;
-    ++report.prototypes;
-    const Mesh& part = parts[p];
-    stage = Clock::now();
-    std::vector<Mesh> pieces;
-    if (options.max_triangles == 0 || part.triangle_count() <= options.max_triangles) {
-      pieces.push_back(part);
-    } else {
-      SegmentOptions segment_options;
-      segment_options.max_triangles = options.max_triangles;
-      OSTEON_ASSIGN_OR_RETURN(Segmentation seg, segment(part, segment_options));
-      for (uint32_t label = 0; label < seg.count; ++label) {
-        Mesh piece = extract(part, seg.labels, label);
-        if (piece.triangle_count() > 0) pieces.push_back(std::move(piece));
+  if (options.repeats) {
+    progress(PackStage::kRepeats, 0, parts.size());
+    RepeatOptions repeat_options;
+    repeat_options.tolerance = options.repeat_tolerance;
+    repeat_options.bits = options.bits;
+    repeat_options.precision = options.precision;
+    repeat_options.threads = options.threads;
+    OSTEON_ASSIGN_OR_RETURN(RepeatReport repeats, find_repeats(parts, repeat_options));
+    for (const RepeatGroup& group : repeats.groups) {
+      for (const RepeatMember& member : group.members) {
+        prototype_of[member.part] = group.prototype;
+        matrix_of[member.part] = member.matrix;
+        mirror_of[member.part] = member.mirror;
+        repeat_error[member.part] = member.tolerance;
       }
     }
-    report.timings.segment_ms += ms_since(stage);
+  }
+  progress(PackStage::kRepeats, parts.size(), parts.size());
+  report.timings.repeats_ms = ms_since(stage);
 
-    stage = Clock::now();
-    const Aabb part_box = bounding_box(part);
-    const double side = std::max({part_box.max.x - part_box.min.x, part_box.max.y - part_box.min.y,
-                                  part_box.max.z - part_box.min.z});
-    EncodeOptions encode_options;
-    encode_options.bits = options.bits;
-    encode_options.precision = options.precision;
-    encode_options.grid.origin = part_box.min;
-    encode_options.grid.step = options.precision > 0
-                                   ? 2 * options.precision
-                                   : std::max(side, 1e-6) / ((1 << options.bits) - 1);
-    for (Mesh& piece : pieces) {
+  // Segment each prototype part larger than max_triangles into components (in parallel over
+  // parts; each part's result lands in its own slot, so the output does not depend on timing).
+  stage = Clock::now();
+  std::vector<size_t> prototypes;
+  for (size_t p = 0; p < parts.size(); ++p) {
+    if (prototype_of[p] == p) prototypes.push_back(p);
+  }
+  report.prototypes = prototypes.size();
+  std::vector<std::vector<Mesh>> pieces_of(parts.size());
+  std::vector<Status> segment_status(parts.size());
+  std::vector<size_t> to_segment;
+  for (size_t p : prototypes) {
+    if (options.max_triangles == 0 || parts[p].triangle_count() <= options.max_triangles) {
+      pieces_of[p].push_back(parts[p]);
+    } else {
+      to_segment.push_back(p);
+    }
+  }
+  progress(PackStage::kSegment, 0, to_segment.size());
+  // Largest first, so the long ones start early; one part per task.
+  std::stable_sort(to_segment.begin(), to_segment.end(), [&](size_t a, size_t b) {
+    return parts[a].triangle_count() > parts[b].triangle_count();
+  });
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), to_segment.size(), [&](size_t i) {
+      const size_t p = to_segment[i];
+      SegmentOptions segment_options;
+      segment_options.max_triangles = options.max_triangles;
+      Result<Segmentation> seg = segment(parts[p], segment_options);
+      if (!seg.ok()) {
+        segment_status[p] = seg.status();
+        return;
+      }
+      for (uint32_t label = 0; label < seg.value().count; ++label) {
+        Mesh piece = extract(parts[p], seg.value().labels, label);
+        if (piece.triangle_count() > 0) pieces_of[p].push_back(std::move(piece));
+      }
+    });
+  });
+  for (size_t p : to_segment) OSTEON_RETURN_IF_ERROR(segment_status[p]);
+  progress(PackStage::kSegment, to_segment.size(), to_segment.size());
+  report.timings.segment_ms = ms_since(stage);
+
+  // Encode every piece on its part's own grid (so the components of one part meet without
+  // cracks), in parallel over pieces.
+  stage = Clock::now();
+  std::vector<Component> components;
+  std::vector<std::vector<size_t>> components_of(parts.size());
+  std::vector<std::pair<size_t, size_t>> jobs;  // (part, piece)
+  for (size_t p : prototypes) {
+    for (size_t k = 0; k < pieces_of[p].size(); ++k) {
+      components_of[p].push_back(components.size());
+      components.emplace_back();
+      jobs.emplace_back(p, k);
+    }
+  }
+  std::vector<Status> encode_status(jobs.size());
+  progress(PackStage::kEncode, 0, jobs.size());
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
+      const Mesh& part = parts[jobs[j].first];
+      const Mesh& piece = pieces_of[jobs[j].first][jobs[j].second];
+      const Aabb part_box = bounding_box(part);
+      const double side =
+          std::max({part_box.max.x - part_box.min.x, part_box.max.y - part_box.min.y,
+                    part_box.max.z - part_box.min.z});
+      EncodeOptions encode_options;
+      encode_options.bits = options.bits;
+      encode_options.precision = options.precision;
+      encode_options.grid.origin = part_box.min;
+      encode_options.grid.step = options.precision > 0
+                                     ? 2 * options.precision
+                                     : std::max(side, 1e-6) / ((1 << options.bits) - 1);
       EncodeReport encoded;
-      OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, encode(piece, encode_options, &encoded));
-      Component c;
+      Result<std::vector<uint8_t>> bytes = encode(piece, encode_options, &encoded);
+      if (!bytes.ok()) {
+        encode_status[j] = bytes.status();
+        return;
+      }
+      Component& c = components[j];
+      // Appended piecewise: g++ 12 warns (-Wrestrict, a false positive) on "c" + to_string().
       c.id = "c";
-      c.id += std::to_string(components.size());
+      c.id += std::to_string(j);
       c.file = "c/";
-      c.file += sha256_hex(bytes).substr(0, 24);
+      c.file += sha256_hex(bytes.value()).substr(0, 24);
       c.file += ".ostm";
-      c.bytes = std::move(bytes);
+      c.bytes = std::move(bytes.value());
       c.triangles = encoded.triangles;
       c.vertices = encoded.vertices;
       c.bounds = bounding_box(piece);
       // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
       c.error_bound = std::sqrt(3.0) / 2 * encoded.grid_step;
-      report.triangles_out += c.triangles;
-      components_of[p].push_back(components.size());
-      components.push_back(std::move(c));
-    }
-    report.timings.encode_ms += ms_since(stage);
-  }
+    });
+  });
+  for (const Status& status : encode_status) OSTEON_RETURN_IF_ERROR(status);
+  for (const Component& c : components) report.triangles_out += c.triangles;
+  progress(PackStage::kEncode, jobs.size(), jobs.size());
+  report.timings.encode_ms = ms_since(stage);
 
   // Instances: every part draws each of its prototype's components with its matrix.
   std::vector<Instance> instances;
@@ -371,7 +507,7 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
       instance.component = c;
       instance.matrix = matrix_of[p];
       instance.mirror = mirror_of[p];
-      instance.error_bound = components[c].error_bound + repeat_error[p];
+      instance.error_bound = bound_up(components[c].error_bound + repeat_error[p]);
       components[c].stream_area +=
           projected_area(transform_box(components[c].bounds, instance.matrix));
       instances.push_back(instance);
@@ -415,14 +551,14 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
                                {"triangles", c.triangles},
                                {"vertices", c.vertices},
                                {"bounds", box_json(c.bounds)},
-                               {"error_bound", c.error_bound}});
+                               {"error_bound", bound_up(c.error_bound)}});
   }
   manifest["components"] = std::move(components_json);
   nlohmann::json instances_json = nlohmann::json::array();
   for (const Instance& instance : instances) {
     instances_json.push_back({{"part", instance.part},
                               {"component", components[instance.component].id},
-                              {"matrix", instance.matrix},
+                              {"matrix", matrix_json(instance.matrix)},
                               {"mirror", instance.mirror},
                               {"error_bound", instance.error_bound}});
   }
@@ -430,17 +566,34 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   nlohmann::json order = nlohmann::json::array();
   for (size_t c : stream) order.push_back(components[c].id);
   manifest["stream_order"] = std::move(order);
-  const std::string manifest_text = manifest.dump(1) + "\n";
+  // Compact: the manifest is the first thing a viewer fetches (about 1 KB per part).
+  const std::string manifest_text = manifest.dump() + "\n";
 
-  // Write: component files (each once), then the manifest.
+  // Write: the viewer's files, the component files (each once), then the manifest.
   stage = Clock::now();
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(options.output) / "c", ec);
   if (ec) {
     return error(ErrorCode::kIoError, options.output, "cannot create the folder: " + ec.message());
   }
+  const uint64_t file_count = viewer_files.size() + components.size() + 1;
+  uint64_t files_done = 0;
+  progress(PackStage::kWrite, 0, file_count);
+  for (const auto& [relative, bytes] : viewer_files) {
+    const std::filesystem::path path = std::filesystem::path(options.output) / relative;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) {
+      return error(ErrorCode::kIoError, path.parent_path().string(),
+                   "cannot create the folder: " + ec.message());
+    }
+    OSTEON_RETURN_IF_ERROR(write_file_atomic(path.string(), bytes.data(), bytes.size()));
+    report.viewer_bytes += bytes.size();
+    progress(PackStage::kWrite, ++files_done, file_count);
+  }
+  report.viewer_files = viewer_files.size();
   std::set<std::string> written;
   for (const Component& c : components) {
+    progress(PackStage::kWrite, ++files_done, file_count);
     if (!written.insert(c.file).second) continue;
     report.output_bytes += c.bytes.size();
     const std::string path = (std::filesystem::path(options.output) / c.file).string();
@@ -450,6 +603,7 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   OSTEON_RETURN_IF_ERROR(
       write_file_atomic(report.manifest, manifest_text.data(), manifest_text.size()));
   report.output_bytes += manifest_text.size();
+  progress(PackStage::kWrite, file_count, file_count);
   report.timings.write_ms = ms_since(stage);
 
   report.components = components.size();

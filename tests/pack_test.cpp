@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 #include <openssl/evp.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -163,6 +165,63 @@ TEST(Pack, SameInputGivesIdenticalBytes) {
   EXPECT_TRUE(a == b) << "two packs of the same input differ";
 }
 
+TEST(Pack, ThreadCountDoesNotChangeTheBytes) {
+  const std::string input = write_phantom();
+  const std::string dir = scratch_dir();
+  PackOptions options;
+  options.max_triangles = 400;
+  options.threads = 1;
+  options.output = dir + "/one";
+  ASSERT_TRUE(pack({input}, options).ok());
+  options.threads = 4;
+  options.output = dir + "/four";
+  ASSERT_TRUE(pack({input}, options).ok());
+  EXPECT_TRUE(tree(dir + "/one") == tree(dir + "/four"));
+}
+
+// The real BodyParts3D skeleton with its names, at a 0.05 mm coordinate precision.
+TEST(Pack, BodyParts3DSkeletonWithNames) {
+  OSTEON_REQUIRE_SHARED_DATA(data);
+  const std::string root = data + "/aHer-dev__3DAnatomy";
+  PackOptions options;
+  options.output = scratch_dir() + "/bp3d";
+  options.precision = 0.05;
+  options.names = root + "/meta.json";
+  Result<PackReport> result = pack({root + "/models/bones"}, options);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  const PackReport& report = result.value();
+  EXPECT_EQ(report.parts, 235u);
+  EXPECT_EQ(report.triangles_out, report.triangles_in);
+  EXPECT_LT(report.output_bytes, report.input_bytes / 8);
+
+  const nlohmann::json manifest = read_manifest(options.output);
+  EXPECT_EQ(manifest["unit"], "mm");
+  std::map<std::string, std::string> group_of;
+  for (const nlohmann::json& part : manifest["parts"]) {
+    group_of[part["display_name"]] = part["group"];
+  }
+  EXPECT_EQ(group_of.size(), 235u) << "every bone has its own display name";
+  for (const char* bone : {"Frontal bone", "Occipital bone", "Mandible", "Left femur"}) {
+    ASSERT_TRUE(group_of.count(bone)) << bone;
+    EXPECT_EQ(group_of[bone], "bones") << bone;
+  }
+  std::map<std::string, double> area;
+  for (const nlohmann::json& c : manifest["components"]) {
+    EXPECT_LE(c["triangles"].get<uint32_t>(), options.max_triangles);
+    EXPECT_LE(c["error_bound"].get<double>(), std::sqrt(3.0) * 0.05 * 1.000001);
+    const std::array<double, 3> lo = c["bounds"]["min"], hi = c["bounds"]["max"];
+    const double dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+    area[c["id"]] = std::max({dx * dy, dy * dz, dx * dz});
+  }
+  // Without repeats every component has one instance in its own frame: the stream order is by
+  // decreasing projected box area.
+  const std::vector<std::string> order = manifest["stream_order"];
+  ASSERT_EQ(order.size(), area.size());
+  if (report.prototypes == report.parts) {
+    for (size_t i = 1; i < order.size(); ++i) EXPECT_GE(area[order[i - 1]], area[order[i]]);
+  }
+}
+
 TEST(Pack, NamesFromCsvAndJson) {
   const std::string input = write_phantom();
   const std::string dir = scratch_dir();
@@ -203,9 +262,18 @@ TEST(Pack, NamesFromCsvAndJson) {
 TEST(Pack, CliSummaryAndBadInput) {
   const std::string input = write_phantom();
   const std::string out = scratch_dir() + "/cli";
-  test::CliRun run = run_cli("pack " + input + " -o " + out + " --bits 12 --json");
+  const std::string viewer = scratch_dir() + "/viewer";
+  fs::create_directories(viewer + "/assets");
+  test::write_bytes(viewer + "/index.html", "<!doctype html><title>osteon</title>");
+  test::write_bytes(viewer + "/assets/viewer-1234.js", "console.log('osteon')");
+  test::CliRun run =
+      run_cli("pack " + input + " -o " + out + " --bits 12 --json --viewer " + viewer);
   ASSERT_EQ(run.status, 0) << run.err;
   const nlohmann::json summary = nlohmann::json::parse(run.out);
+  EXPECT_EQ(summary["viewer_files"].get<size_t>(), 2u);
+  EXPECT_EQ(summary["viewer_bytes"].get<uint64_t>(), 36u + 21u);
+  EXPECT_EQ(read_bytes(out + "/assets/viewer-1234.js").size(), 21u);
+  EXPECT_TRUE(fs::exists(out + "/index.html"));
   EXPECT_GT(summary["input_bytes"].get<uint64_t>(), summary["output_bytes"].get<uint64_t>());
   EXPECT_GT(summary["instances"].get<size_t>(), 0u);
   EXPECT_TRUE(summary["time_ms"].contains("encode"));
@@ -220,6 +288,53 @@ TEST(Pack, CliSummaryAndBadInput) {
   test::CliRun both =
       run_cli("pack " + input + " -o " + missing_out + " --bits 12 --precision 0.1");
   EXPECT_EQ(both.status, 2);
+
+  // A viewer folder that is missing, or that would overwrite the package's own files.
+  test::CliRun no_viewer = run_cli("pack " + input + " -o " + missing_out + " --viewer " +
+                                   scratch_dir() + "/no-such-viewer");
+  EXPECT_EQ(no_viewer.status, 2);
+  EXPECT_NE(no_viewer.err.find("no-such-viewer"), std::string::npos) << no_viewer.err;
+  EXPECT_NE(no_viewer.err.find("npm run build:viewer"), std::string::npos) << no_viewer.err;
+  EXPECT_FALSE(fs::exists(missing_out));
+  test::write_bytes(viewer + "/manifest.json", "{}");
+  test::CliRun clash = run_cli("pack " + input + " -o " + missing_out + " --viewer " + viewer);
+  EXPECT_EQ(clash.status, 2);
+  EXPECT_NE(clash.err.find("manifest.json"), std::string::npos) << clash.err;
+  EXPECT_FALSE(fs::exists(missing_out));
+
+  // --no-viewer writes the data only; --no-repeats stores every part.
+  test::CliRun data_only =
+      run_cli("pack " + input + " -o " + missing_out + " --no-viewer --no-repeats --json");
+  ASSERT_EQ(data_only.status, 0) << data_only.err;
+  const nlohmann::json plain = nlohmann::json::parse(data_only.out);
+  EXPECT_EQ(plain["viewer_files"].get<size_t>(), 0u);
+  EXPECT_EQ(plain["prototypes"], plain["parts"]);
+  EXPECT_FALSE(fs::exists(missing_out + "/index.html"));
+}
+
+TEST(Pack, ReportsEveryStageInOrder) {
+  const std::string input = write_phantom();
+  PackOptions options;
+  options.output = scratch_dir() + "/progress";
+  options.max_triangles = 500;  // the phantom's larger bones are segmented
+  std::vector<PackStage> stages;
+  std::map<PackStage, std::pair<uint64_t, uint64_t>> last;
+  options.progress = [&](PackStage stage, uint64_t done, uint64_t total) {
+    if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+    EXPECT_LE(done, total) << stage_name(stage);
+    last[stage] = {done, total};
+  };
+  Result<PackReport> report = pack({input}, options);
+  ASSERT_TRUE(report.ok()) << report.status().message();
+  const std::vector<PackStage> expected = {PackStage::kRead,    PackStage::kClean,
+                                           PackStage::kRepeats, PackStage::kSegment,
+                                           PackStage::kEncode,  PackStage::kWrite};
+  EXPECT_EQ(stages, expected);
+  for (const auto& [stage, counts] : last) {
+    EXPECT_EQ(counts.first, counts.second) << stage_name(stage) << " ends complete";
+  }
+  EXPECT_EQ(last[PackStage::kEncode].second, report.value().components);
+  EXPECT_GT(last[PackStage::kSegment].second, 0u);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,13 @@
 // manifest (docs/FORMAT.md "Package (osteon pack)").
 
 namespace osteon {
+
+/// The pipeline's stages, in order, as PackOptions::progress reports them. Units: inputs (read),
+/// parts (clean, repeats), prototype parts (segment), components (encode), files (write).
+enum class PackStage { kRead, kClean, kRepeats, kSegment, kEncode, kWrite };
+
+/// "read", "clean", "repeats", "segment", "encode", "write".
+const char* stage_name(PackStage stage);
 
 struct PackOptions {
   /// The package folder; created when absent. Existing files other than the ones written are
@@ -32,8 +40,17 @@ struct PackOptions {
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
   /// docs/FORMAT.md); empty: display names are the part names.
   std::string names;
-  /// Worker threads for the repeat search; 0: every core.
+  /// Worker threads for the repeat search, segmentation and encoding; 0: every core.
   int threads = 0;
+  /// Look for repeated parts (find_repeats); false: every part stores its own components.
+  bool repeats = true;
+  /// A folder whose regular files (recursively, relative paths kept) are copied into the package
+  /// first: the viewer (build/viewer). Empty: no viewer files. It may not hold manifest.json or
+  /// anything under c/.
+  std::string viewer;
+  /// Called as each stage advances (stage, units done, units in the stage), from the calling
+  /// thread; for progress bars. May be empty.
+  std::function<void(PackStage stage, uint64_t done, uint64_t total)> progress;
 };
 
 /// Wall-clock milliseconds of each stage.
@@ -50,6 +67,8 @@ struct PackTimings {
 struct PackReport {
   uint64_t input_bytes = 0;   ///< sizes of the files the parts were read from
   uint64_t output_bytes = 0;  ///< component files plus manifest.json
+  uint64_t viewer_bytes = 0;  ///< the viewer's files copied in (not in output_bytes)
+  size_t viewer_files = 0;
   size_t parts = 0;
   size_t prototypes = 0;  ///< parts whose components are stored (the others are instances)
   size_t components = 0;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "progress.hpp"
 #include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
@@ -191,36 +192,6 @@ void print_header() {
               "max/diag", "mean/diag", "rms/diag", "diagonal", "samples");
 }
 
-// A progress bar on stderr, drawn only on a terminal and only once a run has lasted 0.3 s.
-class ProgressBar {
- public:
-  explicit ProgressBar(uint64_t total) : total_(std::max<uint64_t>(total, 1)) {}
-  ~ProgressBar() {
-    if (drawn_) std::fprintf(stderr, "\r\033[K");
-  }
-  void update(uint64_t done) {
-    if (!enabled_) return;
-    auto now = Clock::now();
-    if (now - start_ < std::chrono::milliseconds(300)) return;
-    if (drawn_ && now - last_ < std::chrono::milliseconds(100)) return;
-    last_ = now;
-    drawn_ = true;
-    double fraction = std::min(1.0, double(done) / double(total_));
-    int filled = static_cast<int>(fraction * 30);
-    std::fprintf(stderr, "\rcomparing [%s%s] %3d%% %.1fM samples", std::string(filled, '#').c_str(),
-                 std::string(30 - filled, '.').c_str(), static_cast<int>(fraction * 100),
-                 double(done) / 1e6);
-    std::fflush(stderr);
-  }
-
- private:
-  uint64_t total_;
-  bool enabled_ = stderr_is_tty();
-  bool drawn_ = false;
-  Clock::time_point start_ = Clock::now();
-  Clock::time_point last_ = start_;
-};
-
 // The samples hausdorff() will take on both meshes of a pair (for the progress bar's total).
 uint64_t expected_samples(const Mesh& a, const Mesh& b, const CompareArgs& args) {
   if (args.samples > 0) return 2 * args.samples;
@@ -269,7 +240,7 @@ int run_compare(const CompareArgs& args) {
   options.threads = args.threads;
   auto start = Clock::now();
   {
-    ProgressBar bar(total);
+    ProgressBar bar("comparing", "samples", total);
     uint64_t before = 0;
     for (Pair& pair : pairs) {
       options.progress = [&](uint64_t done, uint64_t) { bar.update(before + done); };

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -8,11 +9,18 @@
 
 #include "cli.hpp"
 #include "osteon/pack.hpp"
+#include "progress.hpp"
 
-// osteon pack INPUT... -o DIR [--bits N | --precision E] [--repeat-tolerance X]
-//             [--max-triangles N] [--names FILE] [--json]
+#ifndef OSTEON_VIEWER_DIR
+#define OSTEON_VIEWER_DIR "build/viewer"
+#endif
+
+// osteon pack INPUT... -o DIR [--bits N | --precision E] [--repeat-tolerance X] [--no-repeats]
+//             [--max-triangles N] [--names FILE] [--viewer DIR | --no-viewer] [--threads T]
+//             [--json]
 // Runs the whole pipeline (read, clean, repeats, segment, encode) and writes the package that
-// docs/FORMAT.md ("Package (osteon pack)") specifies. The viewer is not written yet.
+// docs/FORMAT.md ("Package (osteon pack)") specifies, with the viewer's files, a complete static
+// site. A progress bar per stage on a terminal.
 
 namespace osteon::cli {
 
@@ -21,12 +29,40 @@ namespace {
 struct PackArgs {
   std::vector<std::string> inputs;
   PackOptions options;
+  bool no_viewer = false;
+  bool no_repeats = false;
   bool json = false;
 };
 
+/// The viewer folder: --viewer, else $OSTEON_VIEWER, else the source tree's build/viewer (the
+/// folder `npm run build:viewer` writes), fixed at compile time.
+std::string viewer_folder(const PackArgs& args) {
+  if (args.no_viewer) return "";
+  if (!args.options.viewer.empty()) return args.options.viewer;
+  if (const char* env = std::getenv("OSTEON_VIEWER"); env != nullptr && *env != 0) return env;
+  return OSTEON_VIEWER_DIR;
+}
+
 int run_pack(const PackArgs& args) {
-  if (stderr_is_tty() && !args.json) std::fprintf(stderr, "osteon: packing ...\n");
-  Result<PackReport> result = pack(args.inputs, args.options);
+  PackOptions options = args.options;
+  options.viewer = viewer_folder(args);
+  options.repeats = !args.no_repeats;
+  // One bar per stage; a stage's bar ends its line when the next stage starts.
+  std::unique_ptr<ProgressBar> bar;
+  PackStage current = PackStage::kRead;
+  options.progress = [&](PackStage stage, uint64_t done, uint64_t total) {
+    if (bar == nullptr || stage != current) {
+      if (bar != nullptr) bar->finish(true);
+      static const char* const kUnits[] = {"inputs", "parts", "parts", "parts", "components",
+                                           "files"};
+      bar = std::make_unique<ProgressBar>(stage_name(stage),
+                                          kUnits[static_cast<int>(stage)], total);
+      current = stage;
+    }
+    bar->update(done);
+  };
+  Result<PackReport> result = pack(args.inputs, options);
+  if (bar != nullptr) bar->finish(true);
   if (!result.ok()) return fail(result.status());
   const PackReport& r = result.value();
   if (args.json) {
@@ -34,6 +70,8 @@ int run_pack(const PackArgs& args) {
                         {"manifest", r.manifest},
                         {"input_bytes", r.input_bytes},
                         {"output_bytes", r.output_bytes},
+                        {"viewer_bytes", r.viewer_bytes},
+                        {"viewer_files", r.viewer_files},
                         {"parts", r.parts},
                         {"prototypes", r.prototypes},
                         {"components", r.components},
@@ -84,6 +122,15 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
                   "largest component in triangles (default 20000; 0: never segment)");
   cmd->add_option("--names", args->options.names,
                   "JSON or CSV mapping file stems to display names and groups");
+  CLI::Option* viewer = cmd->add_option(
+      "--viewer", args->options.viewer,
+      "folder of viewer files to copy in (default: $OSTEON_VIEWER, else " OSTEON_VIEWER_DIR ")");
+  cmd->add_flag("--no-viewer", args->no_viewer, "write the data only, no viewer files")
+      ->excludes(viewer);
+  cmd->add_flag("--no-repeats", args->no_repeats,
+                "store every part's own components (no repeat search)");
+  cmd->add_option("--threads", args->options.threads, "worker threads (default: every core)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--json", args->json, "print a JSON summary");
   cmd->callback([args, run] { *run = [args] { return run_pack(*args); }; });
 }
