@@ -17,6 +17,7 @@
 #include "byte_io.hpp"
 #include "io_internal.hpp"
 #include "osteon/io.hpp"
+#include "osteon/pack.hpp"
 
 // The dispatcher: which reader a file goes to, how files are brought into memory (mapped, or for
 // binary STL streamed), how parts are named, welded and given a unit, and how folders of bone
@@ -253,6 +254,14 @@ Result<Scene> read_path(const std::string& path, const ReadOptions& options) {
   if (!fs::is_directory(status)) {
     OSTEON_RETURN_IF_ERROR(read_one_file(path, stem_of(path), options, &scene));
     assign_unit(options, &scene);
+    return scene;
+  }
+  // A package written by osteon pack: its parts as the viewer draws them.
+  if (is_package(path)) {
+    OSTEON_ASSIGN_OR_RETURN(scene, read_package(path));
+    // The manifest's unit stands unless the caller gives one or it is unknown.
+    const bool unit_known = !scene.parts.empty() && scene.parts.front().unit != Unit::kUnknown;
+    if (options.unit != Unit::kUnknown || !unit_known) assign_unit(options, &scene);
     return scene;
   }
 

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -335,6 +336,79 @@ TEST(Pack, ReportsEveryStageInOrder) {
   }
   EXPECT_EQ(last[PackStage::kEncode].second, report.value().components);
   EXPECT_GT(last[PackStage::kSegment].second, 0u);
+}
+
+// A package reads back as the parts the viewer draws: read_path recognises it, compare measures it.
+TEST(Pack, PackageReadsBackPartByPart) {
+  const std::string input = write_phantom();
+  const std::string out = scratch_dir() + "/readback";
+  PackOptions options;
+  options.output = out;
+  options.max_triangles = 500;
+  ASSERT_TRUE(pack({input}, options).ok());
+  ASSERT_TRUE(is_package(out));
+  Result<Scene> original = read_path(input);
+  ASSERT_TRUE(original.ok());
+  Result<Scene> back = read_path(out);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_EQ(back->parts.size(), original->parts.size());
+  for (size_t p = 0; p < back->parts.size(); ++p) {
+    EXPECT_EQ(back->parts[p].name, original->parts[p].name);
+    EXPECT_EQ(back->parts[p].triangle_count(), original->parts[p].triangle_count());
+  }
+  test::CliRun run = run_cli("compare " + input + " " + out + " --json");
+  ASSERT_EQ(run.status, 0) << run.err;
+  const nlohmann::json report = nlohmann::json::parse(run.out);
+  EXPECT_NE(run.out.find("femur_l"), std::string::npos) << "matched part by part";
+}
+
+// A hostile or broken manifest gives an error naming manifest.json and the field; nothing outside
+// the package is opened.
+TEST(Pack, BadManifestIsRefused) {
+  const std::string input = write_phantom(1);
+  const std::string out = scratch_dir() + "/bad";
+  PackOptions options;
+  options.output = out;
+  ASSERT_TRUE(pack({input}, options).ok());
+  const std::vector<uint8_t> good_bytes = read_bytes(out + "/manifest.json");
+  const std::string good(good_bytes.begin(), good_bytes.end());
+  const nlohmann::json manifest = nlohmann::json::parse(good);
+  struct Case {
+    const char* what;
+    std::function<void(nlohmann::json&)> edit;
+    const char* expect;
+  };
+  const std::vector<Case> cases = {
+      {"escaping file", [](nlohmann::json& m) { m["components"][0]["file"] = "../secret.ostm"; },
+       "components[0].file"},
+      {"unknown component", [](nlohmann::json& m) { m["instances"][0]["component"] = "zz"; },
+       "instances[0].component"},
+      {"part out of range", [](nlohmann::json& m) { m["instances"][1]["part"] = 1000000; },
+       "instances[1].part"},
+      {"short matrix", [](nlohmann::json& m) { m["instances"][0]["matrix"] = {1, 2, 3}; },
+       "instances[0].matrix"},
+      {"version", [](nlohmann::json& m) { m["version"] = 2; }, "version"},
+      {"not a package", [](nlohmann::json& m) { m["format"] = "glTF"; }, "format"},
+  };
+  for (const Case& c : cases) {
+    nlohmann::json edited = manifest;
+    c.edit(edited);
+    test::write_bytes(out + "/manifest.json", edited.dump());
+    Result<Scene> scene = read_package(out);
+    ASSERT_FALSE(scene.ok()) << c.what;
+    EXPECT_NE(scene.status().message().find("manifest.json"), std::string::npos) << c.what;
+    EXPECT_NE(scene.status().message().find(c.expect), std::string::npos)
+        << c.what << ": " << scene.status().message();
+  }
+  test::write_bytes(out + "/manifest.json", "{\"format\": \"osteon-package\", ");
+  EXPECT_FALSE(read_package(out).ok());
+  // A missing component file names the file.
+  test::write_bytes(out + "/manifest.json", good);
+  const std::string file = manifest["components"][0]["file"];
+  fs::remove(out + "/" + file);
+  Result<Scene> missing = read_package(out);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find(file), std::string::npos) << missing.status().message();
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "osteon/mesh.hpp"
 #include "osteon/status.hpp"
 
 // The whole pipeline in one call (issue 7, docs/DESIGN.md "The pipeline"): read every input ->
@@ -90,5 +91,17 @@ struct PackReport {
 /// Known approximations: a repeat's error adds the sampled (lower-bound) Hausdorff tolerance it
 /// was accepted under to the quantization bound.
 Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options);
+
+/// True when `dir` is a folder holding a manifest.json (read_path then reads it as a package).
+bool is_package(const std::string& dir);
+
+/// Reads a package back as the parts a viewer draws: each part the merge of its instances'
+/// decoded components under their matrices (mirrored ones with the winding reversed), named as
+/// in the manifest, in its unit. For measuring what is shown: `osteon compare ORIGINAL PACKAGE`.
+/// Errors (naming manifest.json and the JSON path, or the component file): kInvalidData for a
+/// malformed manifest, an unknown component id, an out-of-range part, a matrix that is not 16
+/// numbers, or a component file name other than c/<24 hex digits>.ostm (nothing outside the
+/// package is opened); kUnsupported for another version; the decoder's errors.
+Result<Scene> read_package(const std::string& dir);
 
 }  // namespace osteon

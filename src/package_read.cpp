@@ -1,0 +1,161 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "osteon/codec.hpp"
+#include "osteon/io.hpp"
+#include "osteon/mesh.hpp"
+#include "osteon/pack.hpp"
+#include "osteon/repeats.hpp"
+
+// Reads a package back into its parts (docs/FORMAT.md "Package"): what a viewer draws, as meshes,
+// so that `osteon compare ORIGINAL PACKAGE` measures the error of what is shown part by part.
+// Every field the drawing needs is checked, with errors naming manifest.json and the JSON path;
+// component files must be the c/<24 hex>.ostm names the format allows, so a hostile manifest
+// cannot make the reader open files outside the package.
+
+namespace osteon {
+
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+constexpr uint64_t kMaxManifestBytes = 256ull << 20;
+
+bool is_component_file(const std::string& name) {
+  if (name.size() != 2 + 24 + 5 || name.rfind("c/", 0) != 0) return false;
+  if (name.compare(26, 5, ".ostm") != 0) return false;
+  return std::all_of(name.begin() + 2, name.begin() + 26,
+                     [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+Status bad(const std::string& manifest, const std::string& where, const std::string& what) {
+  return error(ErrorCode::kInvalidData, manifest, where + ": " + what);
+}
+
+Result<std::vector<uint8_t>> read_all(const std::string& path, uint64_t limit) {
+  std::error_code ec;
+  const uint64_t size = fs::file_size(path, ec);
+  if (ec) return error(ErrorCode::kIoError, path, "cannot open: " + ec.message());
+  if (size > limit) {
+    return error(ErrorCode::kInvalidArgument, path,
+                 "larger than the limit of " + std::to_string(limit) + " bytes");
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::vector<uint8_t> bytes(size);
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size))) {
+    return error(ErrorCode::kIoError, path, "cannot read");
+  }
+  return bytes;
+}
+
+}  // namespace
+
+bool is_package(const std::string& dir) {
+  std::error_code ec;
+  return fs::is_directory(dir, ec) && fs::is_regular_file(fs::path(dir) / "manifest.json", ec);
+}
+
+Result<Scene> read_package(const std::string& dir) {
+  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
+  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> text, read_all(manifest_path, kMaxManifestBytes));
+  const json manifest = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (manifest.is_discarded() || !manifest.is_object()) {
+    return bad(manifest_path, "manifest", "not a JSON object");
+  }
+  if (manifest.value("format", "") != "osteon-package") {
+    return bad(manifest_path, "format", "not \"osteon-package\"");
+  }
+  if (!manifest.contains("version") || !manifest["version"].is_number_integer() ||
+      manifest["version"].get<int64_t>() != 1) {
+    return error(ErrorCode::kUnsupported, manifest_path, "version: only version 1 is read");
+  }
+  const json& parts = manifest.value("parts", json());
+  const json& components = manifest.value("components", json());
+  const json& instances = manifest.value("instances", json());
+  if (!parts.is_array() || !components.is_array() || !instances.is_array()) {
+    return bad(manifest_path, "manifest", "parts, components and instances must be arrays");
+  }
+  Unit unit = Unit::kUnknown;
+  if (manifest.contains("unit") && manifest["unit"].is_string()) {
+    parse_unit(manifest["unit"].get<std::string>(), &unit);
+  }
+
+  // Components, decoded once each (several may share a file).
+  std::map<std::string, Mesh> decoded;
+  std::map<std::string, Mesh> by_file;
+  for (size_t i = 0; i < components.size(); ++i) {
+    const std::string where = "components[" + std::to_string(i) + "]";
+    const json& c = components[i];
+    if (!c.is_object() || !c.contains("id") || !c["id"].is_string() || !c.contains("file") ||
+        !c["file"].is_string()) {
+      return bad(manifest_path, where, "needs string id and file");
+    }
+    const std::string file = c["file"];
+    if (!is_component_file(file)) {
+      return bad(manifest_path, where + ".file", "\"" + file + "\" is not a c/<24 hex>.ostm name");
+    }
+    auto cached = by_file.find(file);
+    if (cached == by_file.end()) {
+      const std::string path = (fs::path(dir) / file).string();
+      OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_all(path, kMaxManifestBytes * 4));
+      OSTEON_ASSIGN_OR_RETURN(Mesh mesh, decode(bytes.data(), bytes.size(), path));
+      cached = by_file.emplace(file, std::move(mesh)).first;
+    }
+    if (!decoded.emplace(c["id"].get<std::string>(), cached->second).second) {
+      return bad(manifest_path, where + ".id", "a second component with this id");
+    }
+  }
+
+  // Parts, each merged from its instances.
+  std::vector<Scene> drawn(parts.size());
+  for (size_t i = 0; i < instances.size(); ++i) {
+    const std::string where = "instances[" + std::to_string(i) + "]";
+    const json& instance = instances[i];
+    if (!instance.is_object() || !instance.contains("part") ||
+        !instance["part"].is_number_unsigned() || !instance.contains("component") ||
+        !instance["component"].is_string()) {
+      return bad(manifest_path, where, "needs part (an index) and component (an id)");
+    }
+    const uint64_t part = instance["part"];
+    if (part >= parts.size()) return bad(manifest_path, where + ".part", "out of range");
+    auto component = decoded.find(instance["component"].get<std::string>());
+    if (component == decoded.end()) {
+      return bad(manifest_path, where + ".component", "no component has this id");
+    }
+    std::array<double, 16> matrix{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    if (instance.contains("matrix")) {
+      const json& m = instance["matrix"];
+      if (!m.is_array() || m.size() != 16 ||
+          !std::all_of(m.begin(), m.end(), [](const json& v) { return v.is_number(); })) {
+        return bad(manifest_path, where + ".matrix", "needs 16 numbers");
+      }
+      for (size_t k = 0; k < 16; ++k) matrix[k] = m[k].get<double>();
+    }
+    drawn[part].parts.push_back(transform_mesh(component->second, matrix));
+  }
+
+  Scene scene;
+  for (size_t p = 0; p < parts.size(); ++p) {
+    const json& part = parts[p];
+    if (!part.is_object() || !part.contains("name") || !part["name"].is_string()) {
+      return bad(manifest_path, "parts[" + std::to_string(p) + "]", "needs a string name");
+    }
+    Mesh mesh = merge_parts(std::move(drawn[p]));
+    mesh.name = part["name"];
+    mesh.source = manifest_path;
+    mesh.unit = unit;
+    mesh.unit_source = unit == Unit::kUnknown ? UnitSource::kUnknown : UnitSource::kUser;
+    scene.parts.push_back(std::move(mesh));
+  }
+  return scene;
+}
+
+}  // namespace osteon
