@@ -143,20 +143,6 @@ double draco_max_error(const osteon::Mesh& mesh, int bits, std::string* note) {
 
 }  // namespace
 
-std::vector<uint8_t> gzip(const std::vector<uint8_t>& in, int level) {
-  z_stream z{};
-  deflateInit2(&z, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);  // 15 + 16: gzip wrapper
-  std::vector<uint8_t> out(deflateBound(&z, in.size()) + 32);
-  z.next_in = const_cast<uint8_t*>(in.data());
-  z.avail_in = static_cast<uInt>(in.size());
-  z.next_out = out.data();
-  z.avail_out = static_cast<uInt>(out.size());
-  int rc = deflate(&z, Z_FINISH);
-  out.resize(rc == Z_STREAM_END ? z.total_out : 0);
-  deflateEnd(&z);
-  return out;
-}
-
 DracoRun run_draco(const osteon::Mesh& mesh, int bits, const Timing& timing,
                    const std::string& stream_stem) {
   DracoRun run;

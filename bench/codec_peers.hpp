@@ -17,6 +17,8 @@
 // does not see their headers: Draco (libdraco-dev, in-process) and meshoptimizer's codecs under
 // gzip (libmeshoptimizer-dev, zlib). Also the timing loop every measurement shares.
 
+#include "bench_gzip.hpp"
+
 namespace osteon_bench {
 
 /// How a time is taken: the best of at least `repeat` runs and of at least `min_seconds` of
@@ -54,8 +56,6 @@ double best_ms(const Timing& timing, Fn&& fn) {
   return best * 1e3;
 }
 
-/// gzip (RFC 1952) of `in` at zlib `level`; empty on failure.
-std::vector<uint8_t> gzip(const std::vector<uint8_t>& in, int level = 9);
 
 /// Draco's compression levels measured, mapped to speeds as draco_encoder maps -cl.
 constexpr int kDracoLevels[2] = {7, 10};
