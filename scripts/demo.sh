@@ -1,16 +1,35 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds osteon, and diagnoses the real BodyParts3D skeleton
-# in ../shared/data (or, when ../shared is absent, a generated phantom skeleton).
+# The main job: installs what is missing, builds osteon, its WebAssembly decoder and the viewer,
+# packs the real BodyParts3D skeleton in ../shared/data with its anatomical names (or, when
+# ../shared is absent, a generated phantom skeleton) and serves the package. Open the printed URL.
+#
+#   bash scripts/demo.sh                     (PORT=8080 HOST=127.0.0.1 by default)
+#   PORT=9000 HOST=0.0.0.0 bash scripts/demo.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh
+jobs=$(nproc)
+
+echo "== building osteon"
 cmake -S . -B build/demo -G Ninja -DCMAKE_BUILD_TYPE=Release -DOSTEON_BUILD_TESTS=OFF >/dev/null
-cmake --build build/demo -j"$(nproc)" --target osteon_cli
+cmake --build build/demo -j"$jobs" --target osteon_cli
 osteon=build/demo/osteon
-skeleton=../shared/data/aHer-dev__3DAnatomy/models/bones
-if [ ! -d "$skeleton" ]; then
-  echo "osteon: ../shared/data is absent: using a generated phantom skeleton instead"
-  skeleton=build/phantom
-  "$osteon" phantom -o "$skeleton"
+
+echo "== building the WebAssembly decoder and the viewer"
+(cd web && npm ci --no-audit --no-fund && JOBS="$jobs" npm run build:decoder && npm run build:viewer)
+
+site=build/demo-site
+data=../shared/data/aHer-dev__3DAnatomy
+rm -rf "$site"
+if [ -d "$data/models/bones" ]; then
+  echo "== packing the BodyParts3D skeleton (235 bones, names from meta.json)"
+  "$osteon" pack "$data/models/bones" --names "$data/meta.json" --precision 0.0289 \
+    --viewer build/viewer -o "$site"
+else
+  echo "osteon: ../shared/data is absent: packing a generated phantom skeleton instead"
+  "$osteon" phantom -o build/phantom
+  "$osteon" pack build/phantom --viewer build/viewer -o "$site"
 fi
-"$osteon" info "$skeleton"
+
+echo "== serving $site (Ctrl-C stops)"
+exec "$osteon" serve "$site" --port "${PORT:-8080}" --host "${HOST:-127.0.0.1}"

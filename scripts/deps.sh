@@ -8,6 +8,9 @@ packages=(
   libassimp-dev
   emscripten
 )
+# The test command also needs Debian's Chromium (the viewer's tests drive it headless through npm's
+# playwright-core, which never downloads a browser): `bash scripts/deps.sh test`.
+[ "${1:-}" = test ] && packages+=(chromium)
 missing=()
 # Node.js and npm for the web decoder's tests: use the machine's own when it has one (e.g.
 # NodeSource's Node 20, which bundles npm); otherwise Debian's packages.

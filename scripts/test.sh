@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Every test: installs what is missing, then builds and runs the suite twice: a Release build with
-# g++ and warnings as errors, and a clang build under AddressSanitizer + UndefinedBehaviorSanitizer.
+# g++ and warnings as errors, and a clang build under AddressSanitizer + UndefinedBehaviorSanitizer;
+# between them the WASM decoder against the native one (Node) and the viewer in headless Chromium.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/deps.sh
+bash scripts/deps.sh test
 jobs=$(nproc)
 
 echo "== g++ Release, -Werror"
@@ -15,6 +16,9 @@ ctest --test-dir build/release -j"$jobs" --output-on-failure
 echo "== WebAssembly decoder (emscripten) against the native decoder"
 (cd web && npm ci --no-audit --no-fund && JOBS="$jobs" OSTEON_WERROR=1 npm run build:decoder \
   && OSTEON_CLI="$PWD/../build/release/osteon" npm test)
+
+echo "== Viewer (three.js) in headless Chromium"
+(cd web && npm run build:viewer && OSTEON_CLI="$PWD/../build/release/osteon" npm run test:browser)
 
 echo "== clang ASan+UBSan, -Werror"
 cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \

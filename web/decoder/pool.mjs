@@ -39,7 +39,7 @@ export async function createDecoderPool(options = {}) {
       for (const [id, job] of pending) {
         if (job.worker !== worker) continue;
         pending.delete(id);
-        job.reject(new Error(`osteon: decoder worker failed: ${e?.message ?? e}`));
+        job.reject(new Error(`osteon: decoder worker failed: ${e?.message || e?.type || e}`));
       }
       worker.jobs = 0;
     };

@@ -1,0 +1,205 @@
+// SPDX-License-Identifier: Apache-2.0
+// What the viewer's browser tests share: where the CLI, the built viewer, the real data and the
+// browser are; packing with the real `osteon pack`; serving with the real `osteon serve`;
+// launching Debian's Chromium headless (WebGL through SwiftShader, no GPU needed); and counting the
+// pixels of a screenshot that differ from the background.
+//
+// Environment:
+//   OSTEON_CLI          the native CLI (default: build/release/osteon, then build/osteon)
+//   OSTEON_VIEWER_DIR   the built viewer (default: build/viewer; `npm run build:viewer`)
+//   OSTEON_SHARED_DATA  the real meshes (default: ../shared/data beside the checkout)
+//   OSTEON_CHROMIUM     the browser (default: /usr/bin/chromium, Debian's; never downloaded)
+
+import { execFileSync, spawn } from 'node:child_process';
+import { cpSync, existsSync, mkdirSync, readdirSync, readFileSync, writeFileSync } from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+import { chromium } from 'playwright-core';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+export const repo = path.resolve(here, '..', '..');
+export const cli = process.env.OSTEON_CLI ??
+  [path.join(repo, 'build', 'release', 'osteon'), path.join(repo, 'build', 'osteon')].find(existsSync);
+export const viewerDir = path.resolve(process.env.OSTEON_VIEWER_DIR ?? path.join(repo, 'build', 'viewer'));
+export const dataDir = path.resolve(process.env.OSTEON_SHARED_DATA ?? path.join(repo, '..', 'shared', 'data'));
+export const chromiumPath = process.env.OSTEON_CHROMIUM ?? '/usr/bin/chromium';
+export const artifacts = path.join(repo, 'build', 'test-artifacts', 'viewer');
+
+/// Why the browser tests cannot run here, or null.
+export function missingPrerequisite() {
+  if (!cli || !existsSync(cli)) return 'the osteon CLI is not built (set OSTEON_CLI or build build/release)';
+  if (!existsSync(path.join(viewerDir, 'index.html'))) return `${viewerDir}/index.html is missing: run npm run build:viewer`;
+  if (!existsSync(chromiumPath)) return `no browser at ${chromiumPath} (apt-get install chromium, or set OSTEON_CHROMIUM)`;
+  return null;
+}
+
+export function osteon(...args) {
+  return execFileSync(cli, args, { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'], maxBuffer: 64 << 20 });
+}
+
+let viewerOption;
+/// Whether this CLI's `osteon pack` copies the viewer itself (--viewer DIR).
+function packHasViewerOption() {
+  viewerOption ??= osteon('pack', '--help').includes('--viewer');
+  return viewerOption;
+}
+
+/// Packs `inputs` into `out` with the real CLI and puts the built viewer beside the manifest
+/// (with `--viewer` when the CLI has it, else copied here the way pack does: every file, relative
+/// paths kept). Returns the parsed manifest.json.
+export function pack(inputs, out, extra = []) {
+  const viewerArgs = packHasViewerOption() ? ['--viewer', viewerDir] : [];
+  osteon('pack', ...inputs, '-o', out, ...extra, ...viewerArgs);
+  if (!viewerArgs.length) cpSync(viewerDir, out, { recursive: true });
+  if (!existsSync(path.join(out, 'index.html'))) throw new Error(`osteon pack left no index.html in ${out}`);
+  return JSON.parse(readFileSync(path.join(out, 'manifest.json'), 'utf8'));
+}
+
+/// Starts `osteon serve root --port 0` and resolves to { url, requests, close } once it prints
+/// its address. `requests` collects the request lines it logs (one per request, on stderr).
+export function serve(root) {
+  const child = spawn(cli, ['serve', root, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
+  const requests = [];
+  let stderrTail = '';
+  child.stderr.setEncoding('utf8');
+  child.stderr.on('data', (chunk) => {
+    stderrTail = (stderrTail + chunk).slice(-4000);
+    requests.push(...chunk.split('\n').filter(Boolean));
+  });
+  return new Promise((resolve, reject) => {
+    let out = '';
+    const timer = setTimeout(() => {
+      child.kill();
+      reject(new Error(`osteon serve printed no address in 10 s: ${out}${stderrTail}`));
+    }, 10000);
+    child.stdout.setEncoding('utf8');
+    child.stdout.on('data', (chunk) => {
+      out += chunk;
+      const match = /(http:\/\/[^\s]+:\d+\/)/.exec(out);
+      if (!match) return;
+      clearTimeout(timer);
+      resolve({
+        url: match[1],
+        requests,
+        close: () => new Promise((done) => {
+          if (child.exitCode !== null) return done();
+          child.once('exit', done);
+          child.kill('SIGTERM');
+        }),
+      });
+    });
+    child.once('exit', (code) => {
+      clearTimeout(timer);
+      reject(new Error(`osteon serve exited (${code}): ${stderrTail}`));
+    });
+  });
+}
+
+/// Debian's Chromium, headless, drawing WebGL with SwiftShader (the software GPU it ships).
+export function launchBrowser() {
+  return chromium.launch({
+    executablePath: chromiumPath,
+    headless: true,
+    args: ['--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+  });
+}
+
+/// Opens `url` and collects the page's console errors and uncaught exceptions. `beforeLoad(page)`
+/// runs first (e.g. to throttle the network).
+export async function openViewer(context, url, beforeLoad = async () => {}) {
+  const page = await context.newPage();
+  await beforeLoad(page);
+  const problems = [];
+  page.on('pageerror', (e) => problems.push(`pageerror: ${e.message}`));
+  page.on('console', (m) => {
+    if (m.type() === 'error') problems.push(`console: ${m.text()}`);
+  });
+  await page.goto(url);
+  return { page, problems };
+}
+
+/// Waits until the viewer has loaded (or failed) every component, then for two more frames so the
+/// last component is on screen.
+export async function waitLoaded(page, timeout = 60000) {
+  await page.waitForFunction(() => window.osteon?.done === true, null, { timeout });
+  await settle(page);
+  return page.evaluate(() => {
+    const { screenPositionOf, screenBoundsOf, select, frame, ...plain } = window.osteon;
+    return JSON.parse(JSON.stringify(plain));
+  });
+}
+
+/// Waits for the frames a change asked for to be drawn (two animation frames, then until the
+/// frame counter stops moving, since OrbitControls' damping draws a few more).
+export async function settle(page) {
+  let frames = -1;
+  for (let i = 0; i < 50; ++i) {
+    const now = await page.evaluate(() => new Promise((resolve) =>
+      requestAnimationFrame(() => requestAnimationFrame(() => resolve(window.osteon.frames)))));
+    if (now === frames) return;
+    frames = now;
+  }
+}
+
+/// A screenshot of the 3D view, saved as build/test-artifacts/viewer/<name>.png. Returns the PNG,
+/// the canvas's client rectangle and the background colour.
+export async function shootCanvas(page, name) {
+  mkdirSync(artifacts, { recursive: true });
+  const canvas = page.locator('#canvas');
+  const box = await canvas.boundingBox();
+  // The overlays (progress text, buttons) are hidden: the pixels counted are the 3D view's alone.
+  const png = await canvas.screenshot({
+    path: path.join(artifacts, `${name}.png`),
+    style: '#status, #view-buttons { visibility: hidden !important; }',
+  });
+  return { png, box };
+}
+
+/// Counts the pixels of `png` (a screenshot of a region at client `origin`) inside `rect` (client
+/// coordinates, clipped to the image) whose colour differs from `background` ('#rrggbb') by more
+/// than 24 in some channel. The PNG is decoded by the browser itself (a blank page's canvas), so
+/// the test needs no image library. Returns { pixels, differing, fraction }.
+export async function countForeground(context, png, origin, rect, background) {
+  const page = await context.newPage();
+  try {
+    return await page.evaluate(async ({ data, origin, rect, background }) => {
+      const image = new Image();
+      image.src = `data:image/png;base64,${data}`;
+      await image.decode();
+      const c = document.createElement('canvas');
+      c.width = image.width;
+      c.height = image.height;
+      const g = c.getContext('2d');
+      g.drawImage(image, 0, 0);
+      const x0 = Math.max(0, Math.floor(rect.left - origin.x));
+      const y0 = Math.max(0, Math.floor(rect.top - origin.y));
+      const x1 = Math.min(image.width, Math.ceil(rect.right - origin.x));
+      const y1 = Math.min(image.height, Math.ceil(rect.bottom - origin.y));
+      if (x1 <= x0 || y1 <= y0) return { pixels: 0, differing: 0, fraction: 0 };
+      const px = g.getImageData(x0, y0, x1 - x0, y1 - y0).data;
+      const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
+      let differing = 0;
+      for (let i = 0; i < px.length; i += 4) {
+        if (Math.abs(px[i] - bg[0]) > 24 || Math.abs(px[i + 1] - bg[1]) > 24 || Math.abs(px[i + 2] - bg[2]) > 24) ++differing;
+      }
+      const pixels = px.length / 4;
+      return { pixels, differing, fraction: differing / pixels };
+    }, { data: png.toString('base64'), origin, rect, background });
+  } finally {
+    await page.close();
+  }
+}
+
+/// The component files of a package folder (c/*.ostm), by name.
+export function componentFiles(dir) {
+  return readdirSync(path.join(dir, 'c')).filter((f) => f.endsWith('.ostm')).sort();
+}
+
+/// Overwrites `count` bytes in the middle of `file` with their complement (so they surely change).
+export function corruptMiddle(file, count = 16) {
+  const bytes = readFileSync(file);
+  const start = Math.max(0, Math.floor(bytes.length / 2) - count / 2);
+  for (let i = start; i < Math.min(bytes.length, start + count); ++i) bytes[i] ^= 0xff;
+  writeFileSync(file, bytes);
+}

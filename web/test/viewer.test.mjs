@@ -1,0 +1,309 @@
+// SPDX-License-Identifier: Apache-2.0
+// The viewer in a real browser: packages made by the real `osteon pack`, served by the real
+// `osteon serve` under a path prefix (/phantom/, /bodyparts3d/, ...), loaded by Debian's Chromium
+// headless with WebGL on SwiftShader. Each test reads window.osteon (the viewer's state), clicks
+// and taps like a person, and checks screenshots pixel by pixel. Screenshots are kept in
+// build/test-artifacts/viewer/ for a person to look at.
+//
+//   cd web && npm run build:viewer && OSTEON_CLI=$PWD/../build/release/osteon npm run test:browser
+//
+// Environment: see browser_helpers.mjs (OSTEON_CLI, OSTEON_VIEWER_DIR, OSTEON_SHARED_DATA,
+// OSTEON_CHROMIUM). The BodyParts3D test skips when the real data is absent; everything else runs
+// on the generated phantom skeleton (`osteon phantom`).
+
+import assert from 'node:assert/strict';
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, unlinkSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import path from 'node:path';
+import { after, before, describe, test } from 'node:test';
+
+import {
+  artifacts,
+  componentFiles,
+  corruptMiddle,
+  countForeground,
+  dataDir,
+  launchBrowser,
+  missingPrerequisite,
+  openViewer,
+  osteon,
+  pack,
+  serve,
+  settle,
+  shootCanvas,
+  waitLoaded,
+} from './browser_helpers.mjs';
+
+const skip = missingPrerequisite();
+if (skip) console.log(`# viewer browser tests skipped: ${skip}`);
+const bonesDir = path.join(dataDir, 'aHer-dev__3DAnatomy', 'models', 'bones');
+const metaJson = path.join(dataDir, 'aHer-dev__3DAnatomy', 'meta.json');
+const kDesktop = { viewport: { width: 1280, height: 800 }, deviceScaleFactor: 1 };
+const kPhone = { viewport: { width: 390, height: 844 }, deviceScaleFactor: 1, isMobile: true, hasTouch: true };
+
+/// Reads window.osteon's plain fields.
+function readState(page) {
+  return page.evaluate(() => {
+    const { screenPositionOf, screenBoundsOf, select, frame, ...plain } = window.osteon;
+    return JSON.parse(JSON.stringify(plain));
+  });
+}
+
+/// The most fetches that were in flight at once, from the viewer's fetch log.
+function maxInFlight(log) {
+  return Math.max(...log.map((e) => log.filter((o) => o.fetchStart <= e.fetchStart && e.fetchStart < o.fetchEnd).length));
+}
+
+describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
+  let work;
+  let site;
+  let server;
+  let browser;
+  let phantomManifest;
+
+  before(async () => {
+    work = mkdtempSync(path.join(tmpdir(), 'osteon-viewer-'));
+    site = path.join(work, 'site');
+    mkdirSync(site);
+    osteon('phantom', '-o', path.join(work, 'phantom-src'));
+    phantomManifest = pack([path.join(work, 'phantom-src')], path.join(site, 'phantom'));
+    server = await serve(site);
+    browser = await launchBrowser();
+  });
+
+  after(async () => {
+    await browser?.close();
+    await server?.close();
+    if (work) rmSync(work, { recursive: true, force: true });
+  });
+
+  test('the phantom skeleton streams in component by component, fills the view and picks bones', async () => {
+    const context = await browser.newContext(kDesktop);
+    // A slow connection (100 kB/s, 20 ms latency), so that streaming shows: the first bone must be
+    // on screen while later components are still downloading.
+    const { page, problems } = await openViewer(context, `${server.url}phantom/`, async (p) => {
+      const cdp = await context.newCDPSession(p);
+      await cdp.send('Network.enable');
+      await cdp.send('Network.emulateNetworkConditions', {
+        offline: false, latency: 20, downloadThroughput: 100_000, uploadThroughput: 100_000,
+      });
+    });
+    const state = await waitLoaded(page);
+    const m = phantomManifest;
+
+    assert.deepEqual(state.errors, []);
+    assert.equal(state.componentsTotal, m.components.length);
+    assert.equal(state.componentsLoaded, m.components.length);
+    assert.equal(state.componentsFailed, 0);
+    assert.equal(state.instancesDrawn, m.instances.length);
+    assert.equal(state.trianglesDrawn, m.parts.reduce((s, p) => s + p.triangles, 0));
+    assert.ok(m.instances.length > m.components.length, 'the phantom has repeated bones (instances)');
+    assert.ok(state.drawCalls < m.instances.length, `${state.drawCalls} draw calls for ${m.instances.length} instances: repeats are GPU-instanced`);
+
+    // Fetched in stream_order, at most 6 at a time, each file once; drawn progressively.
+    const log = state.fetchLog;
+    assert.deepEqual(log.map((e) => e.id), m.stream_order);
+    assert.ok(maxInFlight(log) <= 6, `${maxInFlight(log)} fetches in flight`);
+    const served = server.requests.filter((r) => /^GET \/phantom\/c\/[0-9a-f]{24}\.ostm 200/.test(r));
+    assert.equal(served.length, m.components.length, served.join('\n'));
+    const firstAdded = Math.min(...log.map((e) => e.addedAt));
+    const lastFetched = Math.max(...log.map((e) => e.fetchEnd));
+    assert.ok(state.firstComponentMs < state.allLoadedMs, `first ${state.firstComponentMs} ms, all ${state.allLoadedMs} ms`);
+    assert.equal(firstAdded, state.firstComponentMs);
+    assert.ok(firstAdded < lastFetched, `first component drawn at ${firstAdded} ms, last fetch ended ${lastFetched} ms`);
+    console.log(`# phantom at 100 kB/s: first component ${state.firstComponentMs.toFixed(0)} ms, all ${state.allLoadedMs.toFixed(0)} ms after navigation`);
+
+    // Fitted to view: the package's box projects inside the canvas and fills most of its height.
+    const { png, box } = await shootCanvas(page, 'phantom');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf());
+    assert.ok(bounds.left >= box.x - 1 && bounds.right <= box.x + box.width + 1, JSON.stringify({ bounds, box }));
+    assert.ok(bounds.top >= box.y - 1 && bounds.bottom <= box.y + box.height + 1, JSON.stringify({ bounds, box }));
+    assert.ok(bounds.bottom - bounds.top > 0.7 * box.height, 'the skeleton fills the view\'s height');
+    const inside = await countForeground(context, png, box, bounds, state.background);
+    const all = await countForeground(context, png, box, { left: box.x, top: box.y, right: box.x + box.width, bottom: box.y + box.height }, state.background);
+    console.log(`# phantom screenshot: ${(100 * inside.fraction).toFixed(1)}% of the skeleton's box is bone`);
+    assert.ok(inside.fraction > 0.08, `only ${(100 * inside.fraction).toFixed(1)}% of the box differs from the background`);
+    // Nothing drawn outside the box (the overlays are hidden in the screenshot).
+    assert.ok(all.differing - inside.differing < 0.01 * (all.pixels - inside.pixels), 'bone drawn outside the package bounds');
+
+    // Upright: the skull above the pelvis above the femurs.
+    const at = (name) => page.evaluate((n) => window.osteon.screenPositionOf(n), name);
+    const skull = await at('skull');
+    assert.ok(skull.y < (await at('pelvis')).y && (await at('pelvis')).y < (await at('femur_r')).y, 'the skeleton is upright');
+
+    // Click the skull.
+    await page.mouse.click(skull.x, skull.y);
+    await page.waitForFunction(() => document.querySelector('#info-name').textContent === 'skull');
+    assert.equal((await readState(page)).selected, 'skull');
+    assert.match(await page.locator('#info-drawn').textContent(), /its own mesh/);
+    assert.match(await page.locator('#info-error').textContent(), / mm$/);
+
+    // Click the left femur: a mirrored copy of the right one, drawn by the mirrored InstancedMesh.
+    const femur = await at('femur_l');
+    await page.mouse.click(femur.x, femur.y);
+    await page.waitForFunction(() => document.querySelector('#info-name').textContent === 'femur_l');
+    assert.equal(await page.locator('#info').getAttribute('data-instance'), 'true');
+    assert.equal(await page.locator('#info').getAttribute('data-gpu-instanced'), 'true');
+    assert.match(await page.locator('#info-drawn').textContent(), /instance of femur_r, mirrored/);
+    await settle(page);
+    await shootCanvas(page, 'phantom-femur-selected');
+
+    // Click the background: nothing selected.
+    await page.mouse.click(box.x + 10, box.y + box.height - 10);
+    await page.waitForFunction(() => window.osteon.selected === null);
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+
+  test('the BodyParts3D skeleton (235 bones) loads, renders upright and a click on the head names a skull bone', {
+    skip: existsSync(bonesDir) ? false : `no real data at ${bonesDir}`,
+  }, async () => {
+    const out = path.join(site, 'bodyparts3d');
+    const m = pack([bonesDir], out, ['--names', metaJson]);
+    assert.equal(m.parts.length, 235);
+    const skullBones = new Set(JSON.parse(readFileSync(metaJson, 'utf8'))
+      .map((e) => e.label)
+      .filter((l) => /frontal|parietal|occipital|temporal|sphenoid|ethmoid|nasal|lacrimal|zygomatic|maxilla|palatine|vomer|mandible/i.test(l)));
+    assert.ok(skullBones.has('Frontal bone') && skullBones.has('Occipital bone'));
+
+    const context = await browser.newContext(kDesktop);
+    const { page, problems } = await openViewer(context, `${server.url}bodyparts3d/`);
+    const state = await waitLoaded(page);
+    assert.deepEqual(state.errors, []);
+    assert.equal(state.componentsLoaded, m.components.length);
+    assert.equal(state.componentsTotal, m.components.length);
+    assert.equal(state.instancesDrawn, m.instances.length);
+    assert.equal(state.trianglesDrawn, m.parts.reduce((s, p) => s + p.triangles, 0));
+    assert.equal(await page.locator('#part-list li').count(), 235);
+    console.log(`# BodyParts3D (${m.components.length} components, ${(state.bytesTotal / 1e6).toFixed(2)} MB) from localhost: ` +
+      `manifest ${state.manifestMs.toFixed(0)} ms, first component ${state.firstComponentMs.toFixed(0)} ms, all ${state.allLoadedMs.toFixed(0)} ms after navigation`);
+
+    const { png, box } = await shootCanvas(page, 'bodyparts3d');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf());
+    assert.ok(bounds.bottom - bounds.top > 0.7 * box.height, 'the skeleton fills the view\'s height');
+    const inside = await countForeground(context, png, box, bounds, state.background);
+    console.log(`# BodyParts3D screenshot: ${(100 * inside.fraction).toFixed(1)}% of the skeleton's box is bone`);
+    assert.ok(inside.fraction > 0.05, `only ${(100 * inside.fraction).toFixed(1)}% of the box differs from the background`);
+
+    const at = (name) => page.evaluate((n) => window.osteon.screenPositionOf(n), name);
+    const frontal = await at('Frontal bone');
+    assert.ok(frontal.y < (await at('Left hip bone')).y && (await at('Left hip bone')).y < (await at('Left femur')).y, 'upright');
+    await page.mouse.click(frontal.x, frontal.y);
+    await page.waitForFunction(() => window.osteon.selected !== null);
+    const name = await page.locator('#info-name').textContent();
+    assert.ok(skullBones.has(name), `clicked the head, got "${name}"`);
+    assert.match(await page.locator('#info-group').textContent(), /bones/);
+    await settle(page);
+    await shootCanvas(page, 'bodyparts3d-skull-selected');
+    await page.screenshot({ path: path.join(artifacts, 'bodyparts3d-page.png') });
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+
+  test('a corrupted and a missing component are listed as errors in the page; the rest loads', async () => {
+    const out = path.join(site, 'corrupt');
+    const m = pack([path.join(work, 'phantom-src')], out);
+    const fileOf = new Map(m.components.map((c) => [c.id, c.file]));
+    const corrupted = fileOf.get(m.stream_order[0]);
+    const missing = fileOf.get(m.stream_order[m.stream_order.length - 1]);
+    assert.ok(componentFiles(out).includes(path.basename(corrupted)));
+    corruptMiddle(path.join(out, corrupted));
+    unlinkSync(path.join(out, missing));
+
+    const context = await browser.newContext(kDesktop);
+    const { page, problems } = await openViewer(context, `${server.url}corrupt/`);
+    const state = await waitLoaded(page);
+    assert.equal(state.errors.length, 2, state.errors.join('\n'));
+    assert.ok(state.errors.some((e) => e.includes(corrupted) && /corrupt|checksum/i.test(e)), state.errors.join('\n'));
+    assert.ok(state.errors.some((e) => e.includes(missing) && /404/.test(e)), state.errors.join('\n'));
+    assert.ok(state.errors.every((e) => e.startsWith('osteon:')));
+    const errorBox = page.locator('#errors');
+    assert.ok(await errorBox.isVisible());
+    const text = await errorBox.textContent();
+    assert.ok(text.includes(corrupted) && text.includes(missing), text);
+
+    const failed = new Set([m.stream_order[0], m.stream_order[m.stream_order.length - 1]]);
+    assert.equal(state.componentsFailed, 2);
+    assert.equal(state.componentsLoaded, m.components.length - 2);
+    assert.equal(state.instancesDrawn, m.instances.filter((i) => !failed.has(i.component)).length);
+    const { png, box } = await shootCanvas(page, 'corrupt');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf());
+    assert.ok((await countForeground(context, png, box, bounds, state.background)).fraction > 0.04, 'the other bones are drawn');
+    // The only console error is the browser's own line for the 404.
+    assert.deepEqual(problems.filter((p) => !/404/.test(p)), []);
+
+    // A missing manifest: named in the page, and loading ends.
+    const lost = await openViewer(context, `${server.url}corrupt/?manifest=missing.json`);
+    const lostState = await waitLoaded(lost.page);
+    assert.deepEqual(lostState.errors, ['osteon: missing.json: HTTP 404']);
+    assert.equal(lostState.componentsTotal, 0);
+    assert.match(await lost.page.locator('#errors').textContent(), /missing\.json: HTTP 404/);
+    await context.close();
+  });
+
+  test('on a phone: search selects a bone; hide, isolate, groups and show all change what is drawn; tap picks; the plane clips', async () => {
+    const m = phantomManifest;
+    const context = await browser.newContext(kPhone);
+    const { page, problems } = await openViewer(context, `${server.url}phantom/`);
+    const full = await waitLoaded(page);
+    const all = { instances: full.instancesDrawn, triangles: full.trianglesDrawn };
+    const femur = m.parts.find((p) => p.display_name === 'femur_l');
+
+    // The panel sits under the view on a narrow screen.
+    const view = await page.locator('#view').boundingBox();
+    const panel = await page.locator('#panel').boundingBox();
+    assert.ok(panel.y >= view.y + view.height - 1 && view.width === 390, JSON.stringify({ view, panel }));
+
+    await page.locator('#search').fill('femur');
+    const rows = page.locator('#part-list li:not([hidden]) button');
+    assert.deepEqual(await rows.allTextContents(), ['femur_l', 'femur_r']);
+    await rows.filter({ hasText: 'femur_l' }).tap();
+    await page.waitForFunction(() => window.osteon.selected === 'femur_l');
+    assert.equal(await page.locator('#info-name').textContent(), 'femur_l');
+    assert.equal(await page.locator('#info-triangles').textContent(), femur.triangles.toLocaleString('en'));
+
+    const drawn = async () => {
+      const s = await readState(page);
+      return { instances: s.instancesDrawn, triangles: s.trianglesDrawn };
+    };
+    await page.locator('#hide').tap();
+    assert.deepEqual(await drawn(), { instances: all.instances - 1, triangles: all.triangles - femur.triangles });
+    assert.ok(await page.locator('#part-list li.hidden-part').filter({ hasText: 'femur_l' }).count() === 1);
+    await page.locator('#isolate').tap();
+    assert.deepEqual(await drawn(), { instances: 1, triangles: femur.triangles });
+    await settle(page);
+    await shootCanvas(page, 'phone-isolated');
+    await page.locator('#show-all').tap();
+    assert.deepEqual(await drawn(), all);
+
+    const group = page.locator('#group-list input');
+    await group.first().uncheck();
+    assert.deepEqual(await drawn(), { instances: 0, triangles: 0 });
+    await group.first().check();
+    assert.deepEqual(await drawn(), all);
+
+    // Fit, then tap the skull.
+    await page.locator('#search').fill('');
+    await page.locator('#fit').tap();
+    await settle(page);
+    const skull = await page.evaluate(() => window.osteon.screenPositionOf('skull'));
+    await page.touchscreen.tap(skull.x, skull.y);
+    await page.waitForFunction(() => window.osteon.selected === 'skull');
+    await settle(page);
+    await page.screenshot({ path: path.join(artifacts, 'phone-page.png') });
+
+    // The clipping plane at the middle of Z keeps the upper half: the lower half of the view empties.
+    const before = await shootCanvas(page, 'phone');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf());
+    const lower = { ...bounds, top: (bounds.top + bounds.bottom) / 2 + 4 };
+    const lowerBefore = await countForeground(context, before.png, before.box, lower, full.background);
+    await page.locator('#clip-on').check();
+    await settle(page);
+    const clipped = await shootCanvas(page, 'phone-clipped');
+    const lowerAfter = await countForeground(context, clipped.png, clipped.box, lower, full.background);
+    assert.ok(lowerBefore.differing > 1000, `${lowerBefore.differing} bone pixels below the middle`);
+    assert.ok(lowerAfter.differing < 0.1 * lowerBefore.differing, `clipping left ${lowerAfter.differing} of ${lowerBefore.differing} pixels`);
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+});

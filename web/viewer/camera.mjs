@@ -1,0 +1,41 @@
+// SPDX-License-Identifier: Apache-2.0
+// Where the camera looks from. A package carries no "up" (docs/FORMAT.md): skeletons come Z-up
+// (BodyParts3D, CT scanners' patient axes) or Y-up (OpenSim, glTF), so the tallest side of the
+// package's box is taken as up, which holds for a standing skeleton or any long bone. The default
+// view then looks at the front: from -Y for Z-up (BodyParts3D's face points to -Y), from +Z for
+// Y-up (OpenSim's and glTF's front).
+//
+// Fitting works on the box, not its bounding sphere: a skeleton is tall and thin, and a sphere
+// fit would leave it a third of the screen high.
+
+import { Vector3 } from 'three';
+
+/// { up, eye } unit vectors for a box { min, max }: up along its longest side, eye the direction
+/// from the box's centre to the camera.
+export function defaultView(bounds) {
+  const size = [0, 1, 2].map((i) => bounds.max[i] - bounds.min[i]);
+  const axis = size.indexOf(Math.max(...size));
+  if (axis === 2) return { up: new Vector3(0, 0, 1), eye: new Vector3(0, -1, 0) };
+  if (axis === 1) return { up: new Vector3(0, 1, 0), eye: new Vector3(0, 0, 1) };
+  return { up: new Vector3(1, 0, 0), eye: new Vector3(0, 0, 1) };
+}
+
+/// The camera position and target that show the whole box { min, max } from direction `eye`
+/// (unit, centre to camera) with `up`, for a perspective camera of vertical field of view
+/// `fovDeg` and `aspect`, leaving `margin` (1.1: 10%) around it.
+export function fitBox(bounds, eye, up, fovDeg, aspect, margin = 1.1) {
+  const min = new Vector3().fromArray(bounds.min);
+  const max = new Vector3().fromArray(bounds.max);
+  const target = min.clone().add(max).multiplyScalar(0.5);
+  const half = max.clone().sub(min).multiplyScalar(0.5);
+  const right = new Vector3().crossVectors(up, eye).normalize();
+  const trueUp = new Vector3().crossVectors(eye, right).normalize();
+  // The box's half extent along a unit axis a: sum of |a_i| * half_i.
+  const extent = (a) => Math.abs(a.x) * half.x + Math.abs(a.y) * half.y + Math.abs(a.z) * half.z;
+  const tanV = Math.tan((fovDeg * Math.PI) / 360);
+  const tanH = tanV * aspect;
+  const depth = extent(eye);
+  const distance = Math.max(extent(trueUp) / tanV, extent(right) / tanH) * margin + depth;
+  const position = target.clone().addScaledVector(eye, Math.max(distance, 1e-6));
+  return { position, target, distance, radius: half.length() };
+}

@@ -1,0 +1,218 @@
+// SPDX-License-Identifier: Apache-2.0
+// Reads a package's manifest.json (docs/FORMAT.md, "Package (osteon pack), version 1") into the
+// plain tables the viewer draws from: parts, components by id, instances with their world
+// matrices, the fetch order, and each part's world bounding box (known before any mesh arrives,
+// so the camera can be fitted and a bone framed or clicked before its component has loaded).
+//
+// The manifest comes from the network: every field is checked, and a bad one throws
+// Error('osteon: manifest.json: parts[3].prototype: ...') naming the field, instead of failing
+// later inside three.js. No DOM and no three.js here, so Node tests run it as is.
+
+const kUnits = new Set(['mm', 'cm', 'm', 'in', 'unknown']);
+
+class ManifestError extends Error {}
+
+function fail(where, what) {
+  throw new ManifestError(`osteon: manifest.json: ${where}: ${what}`);
+}
+
+function isObject(v) {
+  return typeof v === 'object' && v !== null && !Array.isArray(v);
+}
+
+function number(v, where) {
+  if (typeof v !== 'number' || !Number.isFinite(v)) fail(where, `expected a finite number, got ${JSON.stringify(v)}`);
+  return v;
+}
+
+function count(v, where) {
+  if (!Number.isSafeInteger(v) || v < 0) fail(where, `expected a count, got ${JSON.stringify(v)}`);
+  return v;
+}
+
+function string(v, where) {
+  if (typeof v !== 'string') fail(where, `expected a string, got ${JSON.stringify(v)}`);
+  return v;
+}
+
+function vec3(v, where) {
+  if (!Array.isArray(v) || v.length !== 3) fail(where, 'expected [x, y, z]');
+  return v.map((x, i) => number(x, `${where}[${i}]`));
+}
+
+function box(v, where) {
+  if (!isObject(v)) fail(where, 'expected {"min": [x, y, z], "max": [x, y, z]}');
+  const min = vec3(v.min, `${where}.min`);
+  const max = vec3(v.max, `${where}.max`);
+  for (let i = 0; i < 3; ++i) if (min[i] > max[i]) fail(where, `min[${i}] > max[${i}]`);
+  return { min, max };
+}
+
+/// A component file must stay inside the package: a relative path with no scheme, no "..", no
+/// leading slash, so a manifest cannot make the viewer fetch from another host or folder.
+function componentFile(v, where) {
+  const file = string(v, where);
+  if (!/^[A-Za-z0-9._\-/]+$/.test(file) || file.startsWith('/') || file.split('/').some((s) => s === '..' || s === '.' || s === '')) {
+    fail(where, `not a relative path inside the package: ${JSON.stringify(file)}`);
+  }
+  return file;
+}
+
+/// The determinant of the upper-left 3x3 of a column-major 4x4.
+export function determinant3(m) {
+  return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
+    m[8] * (m[1] * m[6] - m[5] * m[2]);
+}
+
+/// The world box of `local` (a {min, max} box) under the column-major 4x4 `m`: the box of its eight
+/// transformed corners.
+export function transformBox(local, m) {
+  const min = [Infinity, Infinity, Infinity];
+  const max = [-Infinity, -Infinity, -Infinity];
+  for (let corner = 0; corner < 8; ++corner) {
+    const p = [0, 1, 2].map((i) => ((corner >> i) & 1 ? local.max[i] : local.min[i]));
+    for (let r = 0; r < 3; ++r) {
+      const w = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+      min[r] = Math.min(min[r], w);
+      max[r] = Math.max(max[r], w);
+    }
+  }
+  return { min, max };
+}
+
+export function unionBox(a, b) {
+  if (!a) return { min: [...b.min], max: [...b.max] };
+  return { min: a.min.map((v, i) => Math.min(v, b.min[i])), max: a.max.map((v, i) => Math.max(v, b.max[i])) };
+}
+
+/// Checks a parsed manifest.json and returns:
+///   { unit, bounds, parts, components, componentById: Map, instances, streamOrder (component
+///     objects in fetch order), instancesOf: Map component id -> instance indices,
+///     instancesOfPart: instance indices per part, partBounds: world box per part, groups,
+///     bytesTotal }
+/// Each instance gains `mirror` recomputed from its matrix's determinant (what decides the
+/// winding on screen) and `index`. Throws Error('osteon: manifest.json: <field>: <what>').
+export function parseManifest(json) {
+  if (!isObject(json)) fail('top level', 'expected a JSON object');
+  if (json.format !== 'osteon-package') fail('format', `expected "osteon-package", got ${JSON.stringify(json.format)}`);
+  if (json.version !== 1) fail('version', `this viewer reads version 1, the package is version ${JSON.stringify(json.version)}`);
+  const unit = string(json.unit, 'unit');
+  if (!kUnits.has(unit)) fail('unit', `expected one of ${[...kUnits].join(', ')}, got ${JSON.stringify(unit)}`);
+  const bounds = box(json.bounds, 'bounds');
+  for (const key of ['parts', 'components', 'instances', 'stream_order']) {
+    if (!Array.isArray(json[key])) fail(key, 'expected an array');
+  }
+
+  const parts = json.parts.map((p, i) => {
+    const where = `parts[${i}]`;
+    if (!isObject(p)) fail(where, 'expected an object');
+    if (p.id !== i) fail(`${where}.id`, `expected ${i} (the index), got ${JSON.stringify(p.id)}`);
+    const name = string(p.name, `${where}.name`);
+    return {
+      id: i,
+      name,
+      displayName: p.display_name === undefined ? name : string(p.display_name, `${where}.display_name`),
+      group: p.group === undefined ? '' : string(p.group, `${where}.group`),
+      source: p.source === undefined ? '' : string(p.source, `${where}.source`),
+      triangles: count(p.triangles, `${where}.triangles`),
+      prototype: count(p.prototype, `${where}.prototype`),
+    };
+  });
+  for (const p of parts) {
+    if (p.prototype >= parts.length) fail(`parts[${p.id}].prototype`, `no part ${p.prototype}`);
+  }
+
+  const componentById = new Map();
+  const components = json.components.map((c, i) => {
+    const where = `components[${i}]`;
+    if (!isObject(c)) fail(where, 'expected an object');
+    const id = string(c.id, `${where}.id`);
+    if (componentById.has(id)) fail(`${where}.id`, `${JSON.stringify(id)} appears twice`);
+    const component = {
+      id,
+      index: i,
+      file: componentFile(c.file, `${where}.file`),
+      bytes: count(c.bytes, `${where}.bytes`),
+      triangles: count(c.triangles, `${where}.triangles`),
+      vertices: count(c.vertices, `${where}.vertices`),
+      bounds: box(c.bounds, `${where}.bounds`),
+      errorBound: number(c.error_bound, `${where}.error_bound`),
+    };
+    componentById.set(id, component);
+    return component;
+  });
+
+  const instancesOf = new Map(components.map((c) => [c.id, []]));
+  const instancesOfPart = parts.map(() => []);
+  const partBounds = parts.map(() => null);
+  const instances = json.instances.map((inst, i) => {
+    const where = `instances[${i}]`;
+    if (!isObject(inst)) fail(where, 'expected an object');
+    const part = count(inst.part, `${where}.part`);
+    if (part >= parts.length) fail(`${where}.part`, `no part ${part}`);
+    const componentId = string(inst.component, `${where}.component`);
+    const component = componentById.get(componentId);
+    if (!component) fail(`${where}.component`, `no component ${JSON.stringify(componentId)}`);
+    if (!Array.isArray(inst.matrix) || inst.matrix.length !== 16) fail(`${where}.matrix`, 'expected 16 numbers');
+    const matrix = inst.matrix.map((v, k) => number(v, `${where}.matrix[${k}]`));
+    const det = determinant3(matrix);
+    if (!(Math.abs(det) > 0)) fail(`${where}.matrix`, 'singular (determinant 0)');
+    const instance = {
+      index: i,
+      part,
+      component: componentId,
+      matrix,
+      mirror: det < 0,
+      errorBound: inst.error_bound === undefined ? component.errorBound : number(inst.error_bound, `${where}.error_bound`),
+    };
+    instancesOf.get(componentId).push(i);
+    instancesOfPart[part].push(i);
+    partBounds[part] = unionBox(partBounds[part], transformBox(component.bounds, matrix));
+    return instance;
+  });
+
+  const seen = new Set();
+  const streamOrder = json.stream_order.map((id, i) => {
+    const component = componentById.get(id);
+    if (!component) fail(`stream_order[${i}]`, `no component ${JSON.stringify(id)}`);
+    if (seen.has(id)) fail(`stream_order[${i}]`, `${JSON.stringify(id)} appears twice`);
+    seen.add(id);
+    return component;
+  });
+  const missing = components.filter((c) => !seen.has(c.id)).map((c) => c.id);
+  if (missing.length) fail('stream_order', `misses ${missing.slice(0, 5).join(', ')}${missing.length > 5 ? ', ...' : ''}`);
+
+  // A part without instances (none should exist) still gets a box, so framing it does not fail.
+  for (let i = 0; i < parts.length; ++i) partBounds[i] ??= bounds;
+  const groups = [...new Set(parts.map((p) => p.group))];
+  return {
+    unit,
+    bounds,
+    parts,
+    components,
+    componentById,
+    instances,
+    streamOrder,
+    instancesOf,
+    instancesOfPart,
+    partBounds,
+    groups,
+    bytesTotal: components.reduce((sum, c) => sum + c.bytes, 0),
+  };
+}
+
+/// Finds a part by display name, then name, then source file, case-insensitively; null if none.
+export function findPart(manifest, query) {
+  const q = String(query).trim().toLowerCase();
+  for (const key of ['displayName', 'name', 'source']) {
+    const part = manifest.parts.find((p) => p[key].toLowerCase() === q);
+    if (part) return part;
+  }
+  return null;
+}
+
+/// A length in the manifest's unit, for people: 3 significant digits and the unit.
+export function formatLength(value, unit) {
+  const text = value === 0 ? '0' : Math.abs(value) >= 1000 ? value.toFixed(0) : value.toPrecision(3);
+  return unit === 'unknown' ? `${text} units` : `${text} ${unit}`;
+}
