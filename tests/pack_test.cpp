@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 #include <openssl/sha.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <array>
@@ -88,6 +89,23 @@ TEST(Pack, PhantomPackageReproducesEveryPart) {
   EXPECT_EQ(manifest["stream_order"].size(), report.components);
   EXPECT_LT(report.prototypes, report.parts) << "the phantom has copies: some parts are instances";
   EXPECT_GT(report.components, report.prototypes) << "max_triangles 600 splits the bones";
+
+  // manifest.json.gz holds the manifest's exact bytes.
+  const std::vector<uint8_t> text = read_bytes(out + "/manifest.json");
+  std::vector<uint8_t> gz = read_bytes(out + "/manifest.json.gz");
+  EXPECT_EQ(gz.size(), report.manifest_gzip_bytes);
+  EXPECT_LT(gz.size(), text.size() / 3);
+  std::vector<uint8_t> unzipped(text.size() + 16);
+  z_stream z{};
+  ASSERT_EQ(inflateInit2(&z, 15 + 16), Z_OK);
+  z.next_in = gz.data();
+  z.avail_in = static_cast<uInt>(gz.size());
+  z.next_out = unzipped.data();
+  z.avail_out = static_cast<uInt>(unzipped.size());
+  EXPECT_EQ(inflate(&z, Z_FINISH), Z_STREAM_END);
+  unzipped.resize(z.total_out);
+  inflateEnd(&z);
+  EXPECT_TRUE(unzipped == text) << "manifest.json.gz is the manifest";
 
   // Component files: present, of the stated size and named by their hash; decoded.
   std::map<std::string, Mesh> decoded;

@@ -70,6 +70,7 @@ int run_pack(const PackArgs& args) {
                         {"manifest", r.manifest},
                         {"input_bytes", r.input_bytes},
                         {"output_bytes", r.output_bytes},
+                        {"manifest_gzip_bytes", r.manifest_gzip_bytes},
                         {"viewer_bytes", r.viewer_bytes},
                         {"viewer_files", r.viewer_files},
                         {"parts", r.parts},
