@@ -8,6 +8,7 @@
 #include <array>
 #include <charconv>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <cmath>
@@ -252,8 +253,10 @@ nlohmann::json box_json(const Aabb& box) {
 
 struct Component {
   std::string id;
-  std::string file;  ///< "c/<hash24>.ostm"
+  std::string hash;  ///< SHA-256 of the stream (hex): equal streams are stored once
   std::vector<uint8_t> bytes;
+  size_t chunk = 0;   ///< where the stream is stored: chunk index, byte offset in it
+  size_t offset = 0;
   size_t triangles = 0;
   size_t vertices = 0;
   Aabb bounds;  ///< in the prototype's frame, of the input positions
@@ -332,6 +335,9 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   }
   if (options.bits < 8 || options.bits > 24) {
     return error(ErrorCode::kInvalidArgument, "pack", "bits must be in 8..24");
+  }
+  if (options.chunk_bytes == 0) {
+    return error(ErrorCode::kInvalidArgument, "pack", "chunk bytes must be at least 1");
   }
   if (!(options.precision >= 0) || !std::isfinite(options.precision) ||
       !(options.repeat_tolerance >= 0) || !std::isfinite(options.repeat_tolerance)) {
@@ -496,12 +502,12 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
         return;
       }
       Component& c = components[j];
-      // Appended piecewise: g++ 12 warns (-Wrestrict, a false positive) on "c" + to_string().
-      c.id = "c";
-      c.id += std::to_string(j);
-      c.file = "c/";
-      c.file += sha256_hex(bytes.value()).substr(0, 24);
-      c.file += ".ostm";
+      // Formatted, not concatenated: g++ 12 warns (-Wrestrict, a false positive) on string
+      // appends here.
+      char id[32];
+      std::snprintf(id, sizeof(id), "c%zu", j);
+      c.id = id;
+      c.hash = sha256_hex(bytes.value());
       c.bytes = std::move(bytes.value());
       c.triangles = encoded.triangles;
       c.vertices = encoded.vertices;
@@ -538,10 +544,47 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
     return components[a].stream_area > components[b].stream_area;
   });
 
+  // Chunks: the streams concatenated in stream order, each chunk at most chunk_bytes (a larger
+  // stream gets one of its own), so the viewer makes a few requests, not one per component, and
+  // reads each as a stream, decoding every component the moment its last byte arrives.
+  struct Chunk {
+    std::vector<uint8_t> bytes;
+    std::string file;  ///< "c/<hash24>.ostc"
+  };
+  std::vector<Chunk> chunks;
+  std::map<std::string, size_t> stored;  // stream hash -> component that holds its bytes
+  for (size_t c : stream) {
+    Component& component = components[c];
+    auto first = stored.find(component.hash);
+    if (first != stored.end()) {
+      component.chunk = components[first->second].chunk;
+      component.offset = components[first->second].offset;
+      continue;
+    }
+    stored.emplace(component.hash, c);
+    if (chunks.empty() ||
+        (!chunks.back().bytes.empty() &&
+         chunks.back().bytes.size() + component.bytes.size() > options.chunk_bytes)) {
+      chunks.emplace_back();
+    }
+    component.chunk = chunks.size() - 1;
+    component.offset = chunks.back().bytes.size();
+    chunks.back().bytes.insert(chunks.back().bytes.end(), component.bytes.begin(),
+                               component.bytes.end());
+  }
+  nlohmann::json chunks_json = nlohmann::json::array();
+  for (Chunk& chunk : chunks) {
+    chunk.file = "c/";
+    chunk.file += sha256_hex(chunk.bytes).substr(0, 24);
+    chunk.file += ".ostc";
+    chunks_json.push_back({{"file", chunk.file}, {"bytes", chunk.bytes.size()}});
+  }
+
   // The manifest.
   nlohmann::json manifest;
   manifest["format"] = "osteon-package";
-  manifest["version"] = 1;
+  manifest["version"] = 2;
+  manifest["chunks"] = std::move(chunks_json);
   manifest["unit"] = unit_name(parts.front().unit);
   manifest["bounds"] = box_json(world);
   nlohmann::json parts_json = nlohmann::json::array();
@@ -565,7 +608,8 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   nlohmann::json components_json = nlohmann::json::array();
   for (const Component& c : components) {
     components_json.push_back({{"id", c.id},
-                               {"file", c.file},
+                               {"chunk", c.chunk},
+                               {"offset", c.offset},
                                {"bytes", c.bytes.size()},
                                {"triangles", c.triangles},
                                {"vertices", c.vertices},
@@ -588,14 +632,14 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   // Compact: the manifest is the first thing a viewer fetches (about 1 KB per part).
   const std::string manifest_text = manifest.dump() + "\n";
 
-  // Write: the viewer's files, the component files (each once), then the manifest.
+  // Write: the viewer's files, the chunk files, then the manifest.
   stage = Clock::now();
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(options.output) / "c", ec);
   if (ec) {
     return error(ErrorCode::kIoError, options.output, "cannot create the folder: " + ec.message());
   }
-  const uint64_t file_count = viewer_files.size() + components.size() + 1;
+  const uint64_t file_count = viewer_files.size() + chunks.size() + 1;
   uint64_t files_done = 0;
   progress(PackStage::kWrite, 0, file_count);
   for (const auto& [relative, bytes] : viewer_files) {
@@ -610,13 +654,11 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
     progress(PackStage::kWrite, ++files_done, file_count);
   }
   report.viewer_files = viewer_files.size();
-  std::set<std::string> written;
-  for (const Component& c : components) {
+  for (const Chunk& chunk : chunks) {
     progress(PackStage::kWrite, ++files_done, file_count);
-    if (!written.insert(c.file).second) continue;
-    report.output_bytes += c.bytes.size();
-    const std::string path = (std::filesystem::path(options.output) / c.file).string();
-    OSTEON_RETURN_IF_ERROR(write_file_atomic(path, c.bytes.data(), c.bytes.size()));
+    report.output_bytes += chunk.bytes.size();
+    const std::string path = (std::filesystem::path(options.output) / chunk.file).string();
+    OSTEON_RETURN_IF_ERROR(write_file_atomic(path, chunk.bytes.data(), chunk.bytes.size()));
   }
   report.manifest = (std::filesystem::path(options.output) / "manifest.json").string();
   // The manifest precompressed beside it (6x smaller): osteon serve, nginx's gzip_static and
@@ -633,7 +675,7 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   report.timings.write_ms = ms_since(stage);
 
   report.components = components.size();
-  report.files = written.size();
+  report.files = chunks.size();
   report.instances = instances.size();
   report.timings.total_ms = ms_since(start_total);
   return report;

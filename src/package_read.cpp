@@ -17,8 +17,8 @@
 // Reads a package back into its parts (docs/FORMAT.md "Package"): what a viewer draws, as meshes,
 // so that `osteon compare ORIGINAL PACKAGE` measures the error of what is shown part by part.
 // Every field the drawing needs is checked, with errors naming manifest.json and the JSON path;
-// component files must be the c/<24 hex>.ostm names the format allows, so a hostile manifest
-// cannot make the reader open files outside the package.
+// chunk files must be the c/<24 hex>.ostc names the format allows, so a hostile manifest cannot
+// make the reader open files outside the package.
 
 namespace osteon {
 
@@ -29,9 +29,9 @@ using json = nlohmann::json;
 
 constexpr uint64_t kMaxManifestBytes = 256ull << 20;
 
-bool is_component_file(const std::string& name) {
+bool is_chunk_file(const std::string& name) {
   if (name.size() != 2 + 24 + 5 || name.rfind("c/", 0) != 0) return false;
-  if (name.compare(26, 5, ".ostm") != 0) return false;
+  if (name.compare(26, 5, ".ostc") != 0) return false;
   return std::all_of(name.begin() + 2, name.begin() + 26,
                      [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
 }
@@ -74,42 +74,66 @@ Result<Scene> read_package(const std::string& dir) {
     return bad(manifest_path, "format", "not \"osteon-package\"");
   }
   if (!manifest.contains("version") || !manifest["version"].is_number_integer() ||
-      manifest["version"].get<int64_t>() != 1) {
-    return error(ErrorCode::kUnsupported, manifest_path, "version: only version 1 is read");
+      manifest["version"].get<int64_t>() != 2) {
+    return error(ErrorCode::kUnsupported, manifest_path, "version: only version 2 is read");
   }
   const json& parts = manifest.value("parts", json());
   const json& components = manifest.value("components", json());
   const json& instances = manifest.value("instances", json());
-  if (!parts.is_array() || !components.is_array() || !instances.is_array()) {
-    return bad(manifest_path, "manifest", "parts, components and instances must be arrays");
+  const json& chunks = manifest.value("chunks", json());
+  if (!parts.is_array() || !components.is_array() || !instances.is_array() ||
+      !chunks.is_array()) {
+    return bad(manifest_path, "manifest",
+               "parts, components, instances and chunks must be arrays");
   }
   Unit unit = Unit::kUnknown;
   if (manifest.contains("unit") && manifest["unit"].is_string()) {
     parse_unit(manifest["unit"].get<std::string>(), &unit);
   }
 
-  // Components, decoded once each (several may share a file).
+  // Chunks, read whole (each must be the size the manifest says).
+  std::vector<std::vector<uint8_t>> chunk_bytes(chunks.size());
+  for (size_t k = 0; k < chunks.size(); ++k) {
+    const std::string where = "chunks[" + std::to_string(k) + "]";
+    const json& chunk = chunks[k];
+    if (!chunk.is_object() || !chunk.contains("file") || !chunk["file"].is_string() ||
+        !chunk.contains("bytes") || !chunk["bytes"].is_number_unsigned()) {
+      return bad(manifest_path, where, "needs a string file and a byte count");
+    }
+    const std::string file = chunk["file"];
+    if (!is_chunk_file(file)) {
+      return bad(manifest_path, where + ".file", "\"" + file + "\" is not a c/<24 hex>.ostc name");
+    }
+    const std::string path = (fs::path(dir) / file).string();
+    OSTEON_ASSIGN_OR_RETURN(chunk_bytes[k], read_all(path, kMaxManifestBytes * 4));
+    if (chunk_bytes[k].size() != chunk["bytes"].get<uint64_t>()) {
+      return error(ErrorCode::kInvalidData, path,
+                   "holds " + std::to_string(chunk_bytes[k].size()) + " bytes, the manifest says " +
+                       std::to_string(chunk["bytes"].get<uint64_t>()));
+    }
+  }
+
+  // Components, each decoded from its byte range of its chunk.
   std::map<std::string, Mesh> decoded;
-  std::map<std::string, Mesh> by_file;
   for (size_t i = 0; i < components.size(); ++i) {
     const std::string where = "components[" + std::to_string(i) + "]";
     const json& c = components[i];
-    if (!c.is_object() || !c.contains("id") || !c["id"].is_string() || !c.contains("file") ||
-        !c["file"].is_string()) {
-      return bad(manifest_path, where, "needs string id and file");
+    const bool fields = c.is_object() && c.contains("id") && c["id"].is_string() &&
+                        c.contains("chunk") && c["chunk"].is_number_unsigned() &&
+                        c.contains("offset") && c["offset"].is_number_unsigned() &&
+                        c.contains("bytes") && c["bytes"].is_number_unsigned();
+    if (!fields) return bad(manifest_path, where, "needs a string id, chunk, offset and bytes");
+    const uint64_t chunk = c["chunk"], offset = c["offset"], bytes = c["bytes"];
+    if (chunk >= chunk_bytes.size()) return bad(manifest_path, where + ".chunk", "out of range");
+    const std::vector<uint8_t>& data = chunk_bytes[chunk];
+    if (offset > data.size() || bytes > data.size() - offset) {
+      return bad(manifest_path, where + ".offset",
+                 "the byte range leaves " + chunks[chunk]["file"].get<std::string>());
     }
-    const std::string file = c["file"];
-    if (!is_component_file(file)) {
-      return bad(manifest_path, where + ".file", "\"" + file + "\" is not a c/<24 hex>.ostm name");
-    }
-    auto cached = by_file.find(file);
-    if (cached == by_file.end()) {
-      const std::string path = (fs::path(dir) / file).string();
-      OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_all(path, kMaxManifestBytes * 4));
-      OSTEON_ASSIGN_OR_RETURN(Mesh mesh, decode(bytes.data(), bytes.size(), path));
-      cached = by_file.emplace(file, std::move(mesh)).first;
-    }
-    if (!decoded.emplace(c["id"].get<std::string>(), cached->second).second) {
+    const std::string source = (fs::path(dir) / chunks[chunk]["file"].get<std::string>()).string() +
+                               " at byte " + std::to_string(offset);
+    OSTEON_ASSIGN_OR_RETURN(Mesh mesh, decode(data.data() + offset, bytes, source));
+    if (!decoded.emplace(c["id"].get<std::string>(), std::move(mesh)).second) {
       return bad(manifest_path, where + ".id", "a second component with this id");
     }
   }

@@ -12,6 +12,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <mutex>
+#include <string>
+#include <vector>
 
 #include "osteon/phantom.hpp"
 
@@ -26,6 +29,31 @@ std::string shared_data_dir() {
   return fs::is_directory(dir, ec) ? dir : std::string();
 }
 
+namespace {
+
+// The scratch folders of the running test, removed when it passes (a failing test's stay, to be
+// looked at). Registered with GoogleTest before main runs.
+std::mutex scratch_mutex;
+std::vector<fs::path> scratch_dirs;
+
+class ScratchCleaner : public ::testing::EmptyTestEventListener {
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    std::lock_guard<std::mutex> lock(scratch_mutex);
+    if (info.result() != nullptr && info.result()->Passed()) {
+      std::error_code ec;
+      for (const fs::path& dir : scratch_dirs) fs::remove_all(dir, ec);
+    }
+    scratch_dirs.clear();
+  }
+};
+
+[[maybe_unused]] const bool scratch_cleaner_registered = [] {
+  ::testing::UnitTest::GetInstance()->listeners().Append(new ScratchCleaner);
+  return true;
+}();
+
+}  // namespace
+
 std::string scratch_dir() {
   static std::atomic<int> counter{0};
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -35,6 +63,10 @@ std::string scratch_dir() {
                                               std::to_string(counter++) + "_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
+  {
+    std::lock_guard<std::mutex> lock(scratch_mutex);
+    scratch_dirs.push_back(dir);
+  }
   return dir.string();
 }
 

@@ -76,13 +76,14 @@ TEST(Pack, PhantomPackageReproducesEveryPart) {
   PackOptions options;
   options.output = out;
   options.max_triangles = 600;  // the phantom's bones have about 1k triangles: segment them
+  options.chunk_bytes = 3000;   // several chunks of several components
   Result<PackReport> result = pack({input}, options);
   ASSERT_TRUE(result.ok()) << result.status().message();
   const PackReport& report = result.value();
 
   const nlohmann::json manifest = read_manifest(out);
   EXPECT_EQ(manifest["format"], "osteon-package");
-  EXPECT_EQ(manifest["version"], 1);
+  EXPECT_EQ(manifest["version"], 2);
   EXPECT_EQ(manifest["parts"].size(), report.parts);
   EXPECT_EQ(manifest["components"].size(), report.components);
   EXPECT_EQ(manifest["instances"].size(), report.instances);
@@ -107,19 +108,41 @@ TEST(Pack, PhantomPackageReproducesEveryPart) {
   inflateEnd(&z);
   EXPECT_TRUE(unzipped == text) << "manifest.json.gz is the manifest";
 
-  // Component files: present, of the stated size and named by their hash; decoded.
+  // Chunk files: present, of the stated size and named by their hash; each component's byte
+  // range decodes. Chunks are consecutive runs of the stream order at increasing offsets.
+  std::vector<std::vector<uint8_t>> chunks;
+  for (const nlohmann::json& chunk : manifest["chunks"]) {
+    const std::string file = chunk["file"];
+    chunks.push_back(read_bytes(out + "/" + file));
+    ASSERT_EQ(chunks.back().size(), chunk["bytes"].get<size_t>()) << file;
+    EXPECT_EQ(file, "c/" + sha256_hex(chunks.back()).substr(0, 24) + ".ostc");
+  }
+  EXPECT_EQ(report.files, chunks.size());
   std::map<std::string, Mesh> decoded;
-  std::map<std::string, double> error_bound;
+  std::map<std::string, std::pair<size_t, size_t>> where;
   for (const nlohmann::json& c : manifest["components"]) {
-    const std::string file = c["file"];
-    const std::vector<uint8_t> bytes = read_bytes(out + "/" + file);
-    ASSERT_EQ(bytes.size(), c["bytes"].get<size_t>()) << file;
-    EXPECT_EQ(file, "c/" + sha256_hex(bytes).substr(0, 24) + ".ostm");
+    const size_t chunk = c["chunk"], offset = c["offset"], bytes = c["bytes"];
+    ASSERT_LT(chunk, chunks.size());
+    ASSERT_LE(offset + bytes, chunks[chunk].size());
     EXPECT_LE(c["triangles"].get<size_t>(), options.max_triangles);
-    Result<Mesh> mesh = decode(bytes.data(), bytes.size(), file);
+    Result<Mesh> mesh = decode(chunks[chunk].data() + offset, bytes, "chunk");
     ASSERT_TRUE(mesh.ok()) << mesh.status().message();
     EXPECT_EQ(mesh->triangle_count(), c["triangles"].get<size_t>());
     decoded[c["id"]] = std::move(mesh.value());
+    where[c["id"]] = {chunk, offset};
+  }
+  std::map<size_t, size_t> streams_in;
+  for (const auto& [id, at] : where) ++streams_in[at.first];
+  for (size_t k = 0; k < chunks.size(); ++k) {
+    EXPECT_TRUE(chunks[k].size() <= options.chunk_bytes || streams_in[k] == 1)
+        << "chunk " << k << ": " << chunks[k].size() << " bytes";
+  }
+  EXPECT_GT(chunks.size(), 1u);
+  EXPECT_LT(chunks.size(), decoded.size());
+  std::pair<size_t, size_t> last{0, 0};
+  for (const std::string id : manifest["stream_order"]) {
+    EXPECT_GE(where[id], last) << id << ": chunks follow the stream order";
+    last = where[id];
   }
 
   // Stream order: decreasing summed projected area is not checkable from the manifest alone,
@@ -394,15 +417,19 @@ TEST(Pack, BadManifestIsRefused) {
     const char* expect;
   };
   const std::vector<Case> cases = {
-      {"escaping file", [](nlohmann::json& m) { m["components"][0]["file"] = "../secret.ostm"; },
-       "components[0].file"},
+      {"escaping file", [](nlohmann::json& m) { m["chunks"][0]["file"] = "../secret.ostc"; },
+       "chunks[0].file"},
+      {"range outside its chunk",
+       [](nlohmann::json& m) { m["components"][0]["offset"] = 1u << 30; }, "components[0].offset"},
+      {"chunk out of range", [](nlohmann::json& m) { m["components"][1]["chunk"] = 99; },
+       "components[1].chunk"},
       {"unknown component", [](nlohmann::json& m) { m["instances"][0]["component"] = "zz"; },
        "instances[0].component"},
       {"part out of range", [](nlohmann::json& m) { m["instances"][1]["part"] = 1000000; },
        "instances[1].part"},
       {"short matrix", [](nlohmann::json& m) { m["instances"][0]["matrix"] = {1, 2, 3}; },
        "instances[0].matrix"},
-      {"version", [](nlohmann::json& m) { m["version"] = 2; }, "version"},
+      {"version", [](nlohmann::json& m) { m["version"] = 1; }, "version"},
       {"not a package", [](nlohmann::json& m) { m["format"] = "glTF"; }, "format"},
   };
   for (const Case& c : cases) {
@@ -417,9 +444,27 @@ TEST(Pack, BadManifestIsRefused) {
   }
   test::write_bytes(out + "/manifest.json", "{\"format\": \"osteon-package\", ");
   EXPECT_FALSE(read_package(out).ok());
-  // A missing component file names the file.
+  // A flipped byte inside one stream: the decoder's error names the chunk and the offset.
   test::write_bytes(out + "/manifest.json", good);
-  const std::string file = manifest["components"][0]["file"];
+  {
+    const size_t chunk = manifest["components"][0]["chunk"];
+    const std::string chunk_file = manifest["chunks"][chunk]["file"];
+    const size_t offset = manifest["components"][0]["offset"];
+    const size_t bytes = manifest["components"][0]["bytes"];
+    std::vector<uint8_t> data = read_bytes(out + "/" + chunk_file);
+    const std::vector<uint8_t> saved = data;
+    data[offset + bytes / 2] ^= 0x5a;
+    test::write_bytes(out + "/" + chunk_file, std::string(data.begin(), data.end()));
+    Result<Scene> corrupt = read_package(out);
+    ASSERT_FALSE(corrupt.ok());
+    EXPECT_NE(corrupt.status().message().find(chunk_file + " at byte " + std::to_string(offset)),
+              std::string::npos)
+        << corrupt.status().message();
+    test::write_bytes(out + "/" + chunk_file, std::string(saved.begin(), saved.end()));
+  }
+  // A missing chunk file names the file.
+  test::write_bytes(out + "/manifest.json", good);
+  const std::string file = manifest["chunks"][0]["file"];
   fs::remove(out + "/" + file);
   Result<Scene> missing = read_package(out);
   ASSERT_FALSE(missing.ok());

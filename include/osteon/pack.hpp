@@ -43,6 +43,10 @@ struct PackOptions {
   std::string names;
   /// Worker threads for the repeat search, segmentation and encoding; 0: every core.
   int threads = 0;
+  /// The largest chunk file in bytes: component streams are concatenated in stream order into
+  /// chunk files of at most this size (a larger stream gets a chunk of its own). Fewer, larger
+  /// files cost fewer requests; smaller ones cache at a finer grain.
+  uint64_t chunk_bytes = 512 * 1024;
   /// Look for repeated parts (find_repeats); false: every part stores its own components.
   bool repeats = true;
   /// A folder whose regular files (recursively, relative paths kept) are copied into the package
@@ -67,14 +71,14 @@ struct PackTimings {
 
 struct PackReport {
   uint64_t input_bytes = 0;   ///< sizes of the files the parts were read from
-  uint64_t output_bytes = 0;  ///< component files plus manifest.json
+  uint64_t output_bytes = 0;  ///< chunk files plus manifest.json
   uint64_t manifest_gzip_bytes = 0;  ///< manifest.json.gz (not in output_bytes)
   uint64_t viewer_bytes = 0;  ///< the viewer's files copied in (not in output_bytes)
   size_t viewer_files = 0;
   size_t parts = 0;
   size_t prototypes = 0;  ///< parts whose components are stored (the others are instances)
   size_t components = 0;
-  size_t files = 0;  ///< distinct component files (equal bytes share one file)
+  size_t files = 0;  ///< chunk files (equal streams are stored once)
   size_t instances = 0;
   uint64_t triangles_in = 0;   ///< over all parts after cleaning
   uint64_t triangles_out = 0;  ///< over the stored components
@@ -99,10 +103,11 @@ bool is_package(const std::string& dir);
 /// Reads a package back as the parts a viewer draws: each part the merge of its instances'
 /// decoded components under their matrices (mirrored ones with the winding reversed), named as
 /// in the manifest, in its unit. For measuring what is shown: `osteon compare ORIGINAL PACKAGE`.
-/// Errors (naming manifest.json and the JSON path, or the component file): kInvalidData for a
-/// malformed manifest, an unknown component id, an out-of-range part, a matrix that is not 16
-/// numbers, or a component file name other than c/<24 hex digits>.ostm (nothing outside the
-/// package is opened); kUnsupported for another version; the decoder's errors.
+/// Errors (naming manifest.json and the JSON path, or the chunk file): kInvalidData for a
+/// malformed manifest, an unknown component id, an out-of-range part or chunk, a byte range
+/// outside its chunk, a chunk of another size than the manifest's, a matrix that is not 16
+/// numbers, a chunk file name other than c/<24 hex digits>.ostc (nothing outside the package is
+/// opened); kUnsupported for another version; the decoder's errors (naming chunk and offset).
 Result<Scene> read_package(const std::string& dir);
 
 }  // namespace osteon

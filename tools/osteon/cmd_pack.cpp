@@ -91,7 +91,7 @@ int run_pack(const PackArgs& args) {
     std::cout << j.dump(2) << "\n";
   } else {
     std::printf(
-        "%s: %zu parts (%zu stored, %zu instanced) -> %zu components in %zu files, "
+        "%s: %zu parts (%zu stored, %zu instanced) -> %zu components in %zu chunk files, "
         "%zu instances; %llu -> %llu bytes, %.1f ms\n",
         args.options.output.c_str(), r.parts, r.prototypes, r.parts - r.prototypes, r.components,
         r.files, r.instances, static_cast<unsigned long long>(r.input_bytes),
@@ -121,6 +121,9 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--max-triangles", args->options.max_triangles,
                   "largest component in triangles (default 20000; 0: never segment)");
+  cmd->add_option("--chunk-bytes", args->options.chunk_bytes,
+                  "largest chunk file: streams are concatenated in stream order (default 524288)")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));
   cmd->add_option("--names", args->options.names,
                   "JSON or CSV mapping file stems to display names and groups");
   CLI::Option* viewer = cmd->add_option(

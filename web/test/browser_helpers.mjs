@@ -130,14 +130,16 @@ export async function waitLoaded(page, timeout = 60000) {
   });
 }
 
-/// Waits for the frames a change asked for to be drawn (two animation frames, then until the
-/// frame counter stops moving, since OrbitControls' damping draws a few more).
+/// Waits for the frames a change asked for to be drawn: until the renderer (a worker) has drawn
+/// every change the page sent it, then until the frame counter stops moving over two animation
+/// frames, since OrbitControls' damping draws a few more.
 export async function settle(page) {
   let frames = -1;
   for (let i = 0; i < 50; ++i) {
+    await page.waitForFunction(() => !window.osteon.framePending, null, { timeout: 10000 });
     const now = await page.evaluate(() => new Promise((resolve) =>
-      requestAnimationFrame(() => requestAnimationFrame(() => resolve(window.osteon.frames)))));
-    if (now === frames) return;
+      requestAnimationFrame(() => requestAnimationFrame(() => resolve(window.osteon.framePending ? -1 : window.osteon.frames)))));
+    if (now === frames && now >= 0) return;
     frames = now;
   }
 }
@@ -191,15 +193,34 @@ export async function countForeground(context, png, origin, rect, background) {
   }
 }
 
-/// The component files of a package folder (c/*.ostm), by name.
-export function componentFiles(dir) {
-  return readdirSync(path.join(dir, 'c')).filter((f) => f.endsWith('.ostm')).sort();
+/// The chunk files of a package folder (c/*.ostc), by name.
+export function chunkFiles(dir) {
+  return readdirSync(path.join(dir, 'c')).filter((f) => f.endsWith('.ostc')).sort();
 }
 
-/// Overwrites `count` bytes in the middle of `file` with their complement (so they surely change).
-export function corruptMiddle(file, count = 16) {
+/// Overwrites `count` bytes in the middle of bytes [offset, offset + length) of `file` with their
+/// complement (so they surely change).
+export function corruptRange(file, offset, length, count = 16) {
   const bytes = readFileSync(file);
-  const start = Math.max(0, Math.floor(bytes.length / 2) - count / 2);
-  for (let i = start; i < Math.min(bytes.length, start + count); ++i) bytes[i] ^= 0xff;
+  const start = offset + Math.max(0, Math.floor(length / 2) - count / 2);
+  for (let i = start; i < Math.min(offset + length, start + count); ++i) bytes[i] ^= 0xff;
   writeFileSync(file, bytes);
+}
+
+/// Records the page's main-thread long tasks (PerformanceObserver 'longtask', registered before
+/// any page script) in window.__longTasks as [start, duration] pairs.
+export async function observeLongTasks(context) {
+  await context.addInitScript(() => {
+    window.__longTasks = [];
+    new PerformanceObserver((list) => {
+      for (const e of list.getEntries()) window.__longTasks.push([e.startTime, e.duration]);
+    }).observe({ type: 'longtask', buffered: true });
+  });
+}
+
+/// Total blocking time until `until` (ms from navigation): the part beyond 50 ms of every long
+/// task that started before it.
+export async function totalBlockingTime(page, until) {
+  const tasks = await page.evaluate(() => window.__longTasks ?? []);
+  return tasks.filter(([start]) => start <= until).reduce((sum, [, duration]) => sum + Math.max(0, duration - 50), 0);
 }

@@ -1,12 +1,19 @@
 // SPDX-License-Identifier: Apache-2.0
 // Builds the viewer into build/viewer/ (repository root; `osteon pack` copies that folder into every
 // package):
-//   index.html                       the page, naming the bundles below
-//   viewer-<h>.js, viewer-<h>.css    the page's script (three.js, the viewer, the decoder pool) and style
+//   index.html                       the page, with its style (viewer.css) and its bootstrap
+//                                    (boot.js) inlined, minified: nothing blocks it from starting
+//                                    the downloads the first bones need
+//   viewer-<h>.js                    the page's script (main.mjs: panel, camera controls, picking)
+//   render-worker-<h>.js             the render worker (render_worker.mjs), small so that it starts
+//                                    early; also inlined in index.html, whose bootstrap starts it
+//                                    from a blob: URL (this file is for pages that refuse those)
+//   render-three-<h>.js              what it imports next: three.js's renderer and the scene
+//                                    (render_three.mjs)
 //   decoder-worker-<h>.js            the decoder worker (web/decoder/worker.mjs and the wrapper)
 //   osteon_decoder.wasm              the WebAssembly decoder (build/wasm, from npm run build:decoder)
-//   *.gz                             gzip -9 copies of the text files and the wasm, which
-//                                    `osteon serve` sends to clients that accept gzip
+//   *.gz                             gzip -9 copies of every file, which `osteon serve` sends to
+//                                    clients that accept gzip
 // <h> is the first 24 hex digits of the SHA-256 of the file's bytes (as the package's component
 // files): `osteon serve` sends names with a 16+ hex digit run as immutable, so browsers cache the
 // bundles forever and fetch them again only when they change. The output is deterministic: the
@@ -68,22 +75,53 @@ if (!existsSync(wasmPath)) {
   if (r.status !== 0 || !existsSync(wasmPath)) fail('the decoder build failed; the viewer needs osteon_decoder.wasm');
 }
 
+// The page's script takes 'three' from three_page.mjs (three's source modules it uses), not from
+// three's single-file build, which would bring 255 KB of renderer the page never runs.
+const threePage = {
+  name: 'three-page',
+  setup(build) {
+    build.onResolve({ filter: /^three$/ }, () => ({ path: join(here, 'three_page.mjs') }));
+  },
+};
+
 const files = new Map();  // output name -> bytes
-const worker = await bundle('../decoder/worker.mjs');
-const workerName = hashed('decoder-worker', 'js', worker);
-files.set(workerName, worker);
-const script = await bundle('main.mjs', { define: { OSTEON_WORKER_FILE: JSON.stringify(workerName) } });
-const scriptName = hashed('viewer', 'js', script);
-files.set(scriptName, script);
-const style = await bundle('viewer.css');
-const styleName = hashed('viewer', 'css', style);
-files.set(styleName, style);
+/// Bundles `entry` with `define`, stores it as <name>-<hash>.js and returns that name. Each name
+/// is defined into the bundles that load it, so a change anywhere renames everything upstream.
+async function add(entry, name, define = {}, plugins = []) {
+  const bytes = await bundle(entry, {
+    define: Object.fromEntries(Object.entries(define).map(([k, v]) => [k, JSON.stringify(v)])),
+    plugins,
+  });
+  const file = hashed(name, 'js', bytes);
+  files.set(file, bytes);
+  return file;
+}
+const decoderWorker = await add('../decoder/worker.mjs', 'decoder-worker');
+const renderThree = await add('render_three.mjs', 'render-three');
+const renderWorker = await add('render_worker.mjs', 'render-worker', { OSTEON_RENDER_THREE_FILE: `./${renderThree}` });
+const script = await add('main.mjs', 'viewer', { OSTEON_RENDER_WORKER_FILE: `./${renderWorker}` }, [threePage]);
 files.set('osteon_decoder.wasm', readFileSync(wasmPath));
 
+// The style and the bootstrap go inside the page: a stylesheet would hold the bootstrap back
+// until it had arrived (scripts wait for the style sheets before them), costing a round trip.
+const style = (await bundle('viewer.css')).toString().trim();
+const boot = (await esbuild.transform(readFileSync(join(here, 'boot.js'), 'utf8'), {
+  loader: 'js',
+  minify: true,
+  target: 'es2020',
+  define: {
+    OSTEON_RENDER_WORKER_FILE: JSON.stringify(`./${renderWorker}`),
+    // Escaped so that the page's <script> cannot end inside it.
+    OSTEON_RENDER_WORKER_CODE: JSON.stringify(files.get(renderWorker).toString()).replaceAll('</', '<\\/'),
+    OSTEON_RENDER_THREE_FILE: JSON.stringify(`./${renderThree}`),
+    OSTEON_DECODER_WORKER_FILE: JSON.stringify(`./${decoderWorker}`),
+  },
+})).code.trim();
+if (/<\/(script|style)/i.test(boot + style)) fail('the inlined style or bootstrap contains a closing tag');
 let html = readFileSync(join(here, 'index.html'), 'utf8');
-for (const [marker, name] of [['%VIEWER_JS%', scriptName], ['%VIEWER_CSS%', styleName]]) {
+for (const [marker, text] of [['%VIEWER_JS%', script], ['%VIEWER_CSS%', style], ['%BOOT_JS%', boot]]) {
   if (!html.includes(marker)) fail(`web/viewer/index.html lacks the marker ${marker}`);
-  html = html.replaceAll(marker, name);
+  html = html.replaceAll(marker, () => text);
 }
 files.set('index.html', Buffer.from(html));
 
@@ -101,14 +139,16 @@ const rows = [];
 for (const [name, bytes] of files) {
   writeFileSync(join(out, name), bytes);
   const gz = gzipSync(bytes, { level: 9 });
-  // index.html is 3 KB: not worth a second copy.
-  if (name !== 'index.html') writeFileSync(join(out, `${name}.gz`), gz);
-  total += bytes.length;
-  totalGz += gz.length;
+  writeFileSync(join(out, `${name}.gz`), gz);
+  // The render worker's file is fetched only where blob: workers are refused (it is in the page).
+  if (name !== renderWorker) {
+    total += bytes.length;
+    totalGz += gz.length;
+  }
   rows.push([name, bytes.length, gz.length]);
 }
 const width = Math.max(...rows.map((r) => r[0].length));
 for (const [name, size, gz] of rows) {
   console.log(`osteon: ${out}/${name.padEnd(width)} ${String(size).padStart(8)} bytes, gzip -9 ${String(gz).padStart(7)}`);
 }
-console.log(`osteon: viewer download (all files, gzip -9): ${totalGz} bytes (${total} uncompressed)`);
+console.log(`osteon: viewer download (every file but ${renderWorker}, inlined in the page; gzip -9): ${totalGz} bytes (${total} uncompressed)`);

@@ -10,6 +10,11 @@
 
 import { Vector3 } from 'three';
 
+/// The view's vertical field of view, and its background (the page's CSS paints the same colour
+/// behind the canvas until the first frame).
+export const kFovDeg = 35;
+export const kBackground = '#1c2027';
+
 /// { up, eye } unit vectors for a box { min, max }: up along its longest side, eye the direction
 /// from the box's centre to the camera.
 export function defaultView(bounds) {
@@ -38,4 +43,16 @@ export function fitBox(bounds, eye, up, fovDeg, aspect, margin = 1.1) {
   const distance = Math.max(extent(trueUp) / tanV, extent(right) / tanH) * margin + depth;
   const position = target.clone().addScaledVector(eye, Math.max(distance, 1e-6));
   return { position, target, distance, radius: half.length() };
+}
+
+/// The view a package opens with, the same in the page and in the render worker (each fits its
+/// own camera before the other has said anything): the front view of `bounds` fitted with a 10%
+/// margin, near and far from the package's size (24-bit depth keeps a fraction of a millimetre at
+/// the distance a whole skeleton is seen from, and zooming to a small bone stays unclipped), and
+/// how far the controls may zoom out. Returns { position, target, up, near, far, maxDistance }.
+export function packageView(bounds, fovDeg, aspect) {
+  const radius = Math.max(Math.hypot(...bounds.max.map((v, i) => v - bounds.min[i])) / 2, 1e-6);
+  const { eye, up } = defaultView(bounds);
+  const fit = fitBox(bounds, eye, up, fovDeg, aspect, 1.1);
+  return { position: fit.position, target: fit.target, up, near: radius / 500, far: radius * 60, maxDistance: radius * 20 };
 }

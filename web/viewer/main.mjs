@@ -1,47 +1,38 @@
 // SPDX-License-Identifier: Apache-2.0
-// The osteon viewer: loads the package it is served with (manifest.json beside index.html, or the
-// ?manifest=URL given), streams its components in the manifest's order through a pool of
-// WebAssembly decoder workers, and draws each one the moment it is decoded. Bones can be picked,
-// searched, hidden, isolated, grouped and cut by a clipping plane.
+// The osteon viewer's page: the panel, the camera controls, picking, window.osteon, and the data
+// path: the package's chunk files read as streams (stream.mjs), each component handed to the
+// decoder workers (decoder/pool.mjs) the moment its bytes are in, and each decoded mesh passed on
+// to the renderer. The renderer is a worker (render_worker.mjs) that the page's inline bootstrap
+// (boot.js) started with the canvas before this script had even arrived, along with the manifest,
+// the decoder and its workers; this script picks them up from window.osteonBoot. Where the canvas
+// cannot go to a worker, the same renderer runs here, on a MessagePort (boot.js says when).
+//
+// Why so: nothing on the main thread takes long (no WebGL context, no shader compilation, no mesh
+// upload, no decoding; reading a stream is a copy per network packet), so clicks, scrolling and
+// typing answer at once while a skeleton streams in, and the streams keep being read while the
+// renderer waits on the GPU. window.osteon's counts are computed here from the manifest and the
+// set of components the renderer has drawn (manifest.mjs drawStats), so they are exact the moment
+// a control changes, without a round trip.
 //
 // window.osteon exposes the loading state (counts, times from performance.now(), errors, the
 // per-component fetch log) and a few functions the browser tests and benchmarks call; see `state`.
 //
-// Frames are drawn on demand (a change, a new component, a resize), not in a loop: an idle viewer
-// costs nothing, which matters on phones and when timing the load.
-//
 // Based on: Zhou, Jia & Su 2018 (progressive, per-component streaming of a compressed skeleton);
 // three.js DRACOLoader (decoding off the main thread in a worker pool).
 
-import {
-  Color,
-  DirectionalLight,
-  Group,
-  HemisphereLight,
-  Object3D,
-  PerspectiveCamera,
-  Plane,
-  Raycaster,
-  Scene,
-  Vector2,
-  Vector3,
-  WebGLRenderer,
-} from 'three';
+import { PerspectiveCamera, Vector3 } from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 import { createDecoderPool } from '../decoder/pool.mjs';
-import { defaultView, fitBox } from './camera.mjs';
-import { findPart, formatLength, parseManifest } from './manifest.mjs';
-import { createPackageScene } from './scene.mjs';
-import { createComponentStream, fetchComponent } from './stream.mjs';
+import { fitBox, kBackground, kFovDeg, packageView } from './camera.mjs';
+import { drawInfo, drawStats, findPart, formatLength, parseManifest } from './manifest.mjs';
+import { createChunkStream, planChunks } from './stream.mjs';
 
-// build.mjs replaces OSTEON_WORKER_FILE with the worker bundle's content-hashed file name.
-/* global OSTEON_WORKER_FILE */
-const kWorkerFile = typeof OSTEON_WORKER_FILE === 'string' ? OSTEON_WORKER_FILE : '../decoder/worker.mjs';
-const kBackground = '#1c2027';
-const kFetchesInFlight = 6;
-const kFovDeg = 35;
+// build.mjs replaces OSTEON_RENDER_WORKER_FILE with the render worker's content-hashed file name.
+/* global OSTEON_RENDER_WORKER_FILE */
+const kRenderWorkerFile = typeof OSTEON_RENDER_WORKER_FILE === 'string' ? OSTEON_RENDER_WORKER_FILE : './render_worker.mjs';
 const kTapPixels = 6;       // a pointer that moves further is a drag (orbit), not a pick
+const kChunksInFlight = 2;
 
 const $ = (id) => document.getElementById(id);
 
@@ -57,13 +48,17 @@ const state = {
   drawCalls: 0,
   bytesTotal: 0,
   bytesLoaded: 0,
-  manifestMs: null,        // manifest parsed
-  firstComponentMs: null,  // first component added to the scene
-  allLoadedMs: null,       // every component added or failed
+  chunksTotal: 0,
+  manifestMs: null,        // manifest parsed (on the page)
+  firstComponentMs: null,  // the renderer's first frame with a component drawn (render() returned)
+  allLoadedMs: null,       // every component drawn or failed
   errors: [],              // 'osteon: ...' messages, as listed in the page
   done: false,             // every component loaded or failed (or the manifest failed)
-  fetchLog: [],            // per component in fetch order: { id, file, bytes, fetchStart, fetchEnd, decodedAt, addedAt, error }
-  frames: 0,               // frames drawn
+  fetchLog: [],            // per component in fetch order: { id, chunk, file, offset, bytes, fetchStart, fetchEnd, decodedAt, addedAt, error }
+  frames: 0,               // frames the renderer has drawn
+  framePending: false,     // a change is waiting for its frame
+  renderer: null,          // 'worker' (OffscreenCanvas) or 'page'
+  timings: {},             // the page's bootstrap: manifest, threeFetched; the renderer's start: started, context, three, view, compiled
   unit: null,
   background: kBackground,
   selected: null,          // the selected part's display name
@@ -74,69 +69,86 @@ const state = {
 };
 window.osteon = state;
 
+const boot = window.osteonBoot;
+let link = null;            // the renderer: a Worker or a MessagePort (boot.js)
 let manifest = null;
-let packageScene = null;
 let controls = null;
 let selectedPart = -1;
+let fatal = false;
+const loaded = new Set();   // component ids on screen
+const settled = new Set();  // component ids on screen or failed
+const logById = new Map();  // component id -> its fetchLog entry
 const hiddenParts = new Set();
 const groupOn = new Map();
 const partRows = [];        // { part, li, checkbox, button } per part, in list order
 
-// ---------------------------------------------------------------------------------------------
-// Renderer, camera, lights
-
 const canvas = $('canvas');
-let renderer;
-try {
-  renderer = new WebGLRenderer({ canvas, antialias: true });
-  renderer.localClippingEnabled = true;  // the clipping plane is set per material
-} catch (e) {
-  renderer = null;
-  reportError(`osteon: WebGL is not available in this browser: ${e?.message ?? e}`);
-}
-const scene = new Scene();
-scene.background = new Color(kBackground);
 const camera = new PerspectiveCamera(kFovDeg, 1, 0.1, 1000);
-const root = new Group();
-scene.add(root, camera);
-// Sky and ground light, plus a light that moves with the camera so the side in view is always lit.
-// The headlight comes from above and to the right of the eye: straight from the eye, every surface
-// facing the camera would be equally bright and the bones' relief would vanish.
-scene.add(new HemisphereLight(0xffffff, 0x4a4036, 0.7));
-const headlight = new DirectionalLight(0xffffff, 2.4);
-headlight.position.set(0.6, 0.9, 1);        // in camera space
-const headlightTarget = new Object3D();
-headlightTarget.position.set(0, 0, -1);
-camera.add(headlight, headlightTarget);
-headlight.target = headlightTarget;
-const clipPlane = new Plane(new Vector3(0, 0, 1), 0);
-const raycaster = new Raycaster();
 
-let framePending = false;
-function requestRender() {
-  if (framePending || !renderer) return;
-  framePending = true;
-  requestAnimationFrame(() => {
-    framePending = false;
-    controls?.update();
-    renderer.render(scene, camera);
-    state.frames++;
+// ---------------------------------------------------------------------------------------------
+// Talking to the renderer
+
+let changeSeq = 0;          // the last change sent to the renderer
+let drawnSeq = 0;           // the last change a drawn frame includes
+let pagePending = false;    // an animation frame is scheduled here
+
+function send(message, transfer = []) {
+  link?.postMessage(message, transfer);
+}
+
+function sendCamera() {
+  send({
+    type: 'camera',
+    position: camera.position.toArray(),
+    quaternion: camera.quaternion.toArray(),
+    up: camera.up.toArray(),
+    fov: camera.fov,
+    aspect: camera.aspect,
+    near: camera.near,
+    far: camera.far,
   });
 }
 
+/// Asks for a frame: at this page's next animation frame the controls move the camera (damping),
+/// and the camera and a render request go to the renderer, which draws at its own next frame.
+function requestRender() {
+  if (fatal) return;  // nothing will be drawn: no frame to wait for
+  state.framePending = true;
+  if (pagePending) return;
+  pagePending = true;
+  requestAnimationFrame(() => {
+    pagePending = false;
+    if (fatal) {
+      state.framePending = false;
+      return;
+    }
+    // Until the manifest has fitted this camera, the renderer keeps the view it opened with.
+    if (controls) {
+      controls.update();
+      sendCamera();
+    }
+    send({ type: 'render', seq: ++changeSeq });
+    state.framePending = changeSeq > drawnSeq;
+  });
+}
+
+function sendParts() {
+  if (!manifest) return;
+  const hidden = new Uint8Array(manifest.parts.length);
+  for (const part of manifest.parts) hidden[part.id] = partVisible(part.id) ? 0 : 1;
+  send({ type: 'parts', hidden, highlight: selectedPart }, [hidden.buffer]);
+  requestRender();
+}
+
 function resize() {
-  if (!renderer) return;
   const rect = $('view').getBoundingClientRect();
   const width = Math.max(1, Math.floor(rect.width));
   const height = Math.max(1, Math.floor(rect.height));
-  renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
-  renderer.setSize(width, height, false);
+  send({ type: 'size', width, height, pixelRatio: Math.min(window.devicePixelRatio || 1, 2) });
   camera.aspect = width / height;
   camera.updateProjectionMatrix();
   requestRender();
 }
-new ResizeObserver(resize).observe($('view'));
-resize();
 
 // ---------------------------------------------------------------------------------------------
 // Camera fitting and screen projection
@@ -152,8 +164,8 @@ function fitCamera(bounds, eye, up, margin = 1.1) {
 
 function fitAll() {
   if (!manifest) return;
-  const { eye, up } = defaultView(manifest.bounds);
-  fitCamera(manifest.bounds, eye, up);
+  const view = packageView(manifest.bounds, kFovDeg, camera.aspect);
+  fitCamera(manifest.bounds, view.position.clone().sub(view.target).normalize(), view.up);
 }
 
 /// Frames a part from the current direction of view.
@@ -215,10 +227,27 @@ function megabytes(bytes) {
   return `${(bytes / 1e6).toFixed(bytes < 1e7 ? 2 : 1)} MB`;
 }
 
+// The status line and the statistics are rewritten at most every kStatusMs while loading, however
+// many components arrive: every change on the page is a new frame for the browser's compositor,
+// which (with a software GPU, headless) reads the whole window back each time, on the same GPU
+// thread that creates the renderer's context and compiles its shaders. Changing the text at every
+// animation frame kept that thread busy and delayed the first bones by hundreds of milliseconds.
+const kStatusMs = 500;
+let statusTimer = null;
+let statusAt = -Infinity;
+function scheduleStatus() {
+  if (statusTimer !== null) return;
+  statusTimer = setTimeout(() => {
+    statusTimer = null;
+    statusAt = performance.now();
+    updateStatus();
+  }, Math.max(0, statusAt + kStatusMs - performance.now()));
+}
+
 function updateStatus() {
-  const settled = state.componentsLoaded + state.componentsFailed;
+  const settledCount = state.componentsLoaded + state.componentsFailed;
   $('progress').max = Math.max(1, state.componentsTotal);
-  $('progress').value = settled;
+  $('progress').value = settledCount;
   const failed = state.componentsFailed ? `, ${state.componentsFailed} failed` : '';
   if (state.done) {
     const seconds = ((state.allLoadedMs ?? performance.now()) / 1000).toFixed(2);
@@ -227,19 +256,22 @@ function updateStatus() {
     $('status').classList.add('done');
   } else {
     $('progress-text').textContent =
-      `${settled} / ${state.componentsTotal} components${failed} · ${megabytes(state.bytesLoaded)} / ${megabytes(state.bytesTotal)}`;
+      `${settledCount} / ${state.componentsTotal} components${failed} · ${megabytes(state.bytesLoaded)} / ${megabytes(state.bytesTotal)}`;
   }
+  $('stats').textContent =
+    `${state.instancesDrawn.toLocaleString('en')} of ${state.instancesTotal.toLocaleString('en')} instances · ` +
+    `${state.trianglesDrawn.toLocaleString('en')} triangles · ${state.drawCalls} draw calls`;
 }
 
+/// The counts in window.osteon, from the manifest and what is on screen (synchronous: a test
+/// reads them right after a click).
 function updateStats() {
-  if (!packageScene) return;
-  const s = packageScene.stats();
+  if (!manifest) return;
+  const s = drawStats(manifest, loaded, partVisible);
   state.instancesDrawn = s.instances;
   state.trianglesDrawn = s.triangles;
   state.drawCalls = s.drawCalls;
-  $('stats').textContent =
-    `${s.instances.toLocaleString('en')} of ${state.instancesTotal.toLocaleString('en')} instances · ` +
-    `${s.triangles.toLocaleString('en')} triangles · ${s.drawCalls} draw calls`;
+  scheduleStatus();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -251,7 +283,6 @@ function partVisible(id) {
 }
 
 function applyVisibility() {
-  packageScene.setVisibility(partVisible);
   for (const row of partRows) {
     const visible = partVisible(row.part.id);
     row.checkbox.checked = visible;
@@ -261,12 +292,12 @@ function applyVisibility() {
     const box = document.querySelector(`#group-list input[data-group="${CSS.escape(group)}"]`);
     if (box) box.checked = on;
   }
+  sendParts();
   updateStats();
-  requestRender();
 }
 
 function drawnAs(part) {
-  const info = packageScene.drawInfo(part.id);
+  const info = drawInfo(manifest, part.id, loaded);
   const words = [];
   if (part.prototype !== part.id) {
     const mirrored = info.some((i) => i.mirror);
@@ -306,14 +337,13 @@ function showInfo() {
 
 function select(partId, { frame = false, scroll = true } = {}) {
   selectedPart = partId;
-  packageScene.setHighlight(partId);
+  sendParts();
   showInfo();
   if (partId >= 0) {
     if (frame) framePart(partId);
     const row = partRows.find((r) => r.part.id === partId);
     if (scroll && row && row.li.offsetParent) row.li.scrollIntoView({ block: 'nearest' });
   }
-  requestRender();
 }
 
 function selectByName(name, options) {
@@ -325,34 +355,47 @@ function selectByName(name, options) {
 
 function buildLists() {
   const list = $('part-list');
+  const rows = document.createDocumentFragment();
   const sorted = [...manifest.parts].sort((a, b) => a.displayName.localeCompare(b.displayName, 'en', { numeric: true }));
   for (const part of sorted) {
     const li = document.createElement('li');
     const checkbox = document.createElement('input');
     checkbox.type = 'checkbox';
-    checkbox.checked = true;
+    checkbox.checked = partVisible(part.id);
+    checkbox.dataset.part = String(part.id);
     checkbox.setAttribute('aria-label', `Show ${part.displayName}`);
-    checkbox.addEventListener('change', () => {
-      if (checkbox.checked) {
-        hiddenParts.delete(part.id);
-        groupOn.set(part.group, true);
-      } else {
-        hiddenParts.add(part.id);
-      }
-      applyVisibility();
-    });
     const button = document.createElement('button');
     button.type = 'button';
     button.textContent = part.displayName;
     button.title = part.name;
     button.dataset.part = String(part.id);
-    button.addEventListener('click', () => select(part.id, { frame: true, scroll: false }));
     li.append(checkbox, button);
-    list.append(li);
+    li.classList.toggle('hidden-part', !partVisible(part.id));
+    rows.append(li);
     partRows.push({ part, li, checkbox, button });
   }
+  list.append(rows);
+  // One listener each for the whole list instead of two per bone.
+  list.addEventListener('change', (e) => {
+    const id = Number(e.target.dataset.part);
+    if (!(id >= 0)) return;
+    if (e.target.checked) {
+      hiddenParts.delete(id);
+      groupOn.set(manifest.parts[id].group, true);
+    } else {
+      hiddenParts.add(id);
+    }
+    applyVisibility();
+  });
+  list.addEventListener('click', (e) => {
+    const button = e.target.closest('button[data-part]');
+    if (button) select(Number(button.dataset.part), { frame: true, scroll: false });
+  });
   filterList();
+  showInfo();
+}
 
+function buildGroups() {
   const groups = $('group-list');
   for (const group of [...manifest.groups].sort()) {
     groupOn.set(group, true);
@@ -396,30 +439,24 @@ function updateClip() {
   const at = lo + t * (hi - lo);
   const sign = $('clip-flip').checked ? -1 : 1;
   // Three.js draws the side where normal . p + constant >= 0: keep p[axis] >= at, or <= at.
-  clipPlane.normal.set(0, 0, 0).setComponent(axis, sign);
-  clipPlane.constant = -sign * at;
+  const normal = [0, 0, 0];
+  normal[axis] = sign;
   $('clip-value').textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
-  for (const material of packageScene.materials) {
-    const planes = on ? [clipPlane] : null;
-    if ((material.clippingPlanes?.length ?? 0) !== (planes?.length ?? 0)) material.needsUpdate = true;
-    material.clippingPlanes = planes;
-  }
+  send({ type: 'clip', on, normal, constant: -sign * at });
   requestRender();
 }
 
 // ---------------------------------------------------------------------------------------------
-// Picking
+// Picking: the renderer holds the meshes, so it casts the ray and answers with the part.
 
+let pickSeq = 0;
 function pick(clientX, clientY) {
-  if (!packageScene) return;
+  if (!manifest || !link) return;
   const rect = canvas.getBoundingClientRect();
-  const ndc = new Vector2(((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1);
-  raycaster.setFromCamera(ndc, camera);
-  const clipping = $('clip-on').checked;
-  // Raycasts ignore clipping planes: skip hits on the part cut away.
-  const hit = raycaster.intersectObjects(packageScene.pickable(), false)
-    .find((h) => !clipping || clipPlane.distanceToPoint(h.point) >= 0);
-  select(hit ? packageScene.partOf(hit) : -1);
+  const ndc = [((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1];
+  camera.updateMatrixWorld();
+  sendCamera();  // the ray is cast from the camera as it is now, not as of the last frame
+  send({ type: 'pick', id: ++pickSeq, ndc });
 }
 
 let down = null;
@@ -434,7 +471,7 @@ canvas.addEventListener('pointerup', (e) => {
 });
 canvas.addEventListener('pointercancel', () => { down = null; });
 canvas.addEventListener('keydown', (e) => {
-  if (e.key === 'Escape' && packageScene) select(-1);
+  if (e.key === 'Escape' && manifest) select(-1);
 });
 
 // ---------------------------------------------------------------------------------------------
@@ -474,50 +511,180 @@ for (const id of ['clip-on', 'clip-axis', 'clip-flip']) $(id).addEventListener('
 $('clip-pos').addEventListener('input', updateClip);
 
 // ---------------------------------------------------------------------------------------------
+// The renderer's messages (render_worker.mjs lists them)
+
+// The list of bones (235 rows for BodyParts3D) is built once loading has ended, or kListsAfterMs
+// after the manifest, when the browser is idle: painting it takes the GPU process (which, with a
+// software GPU, rasterizes the page's text too) from the renderer's frames, and held them off the
+// screen by a third of a second when it was built at the first frame.
+const kListsAfterMs = 3000;
+let listsBuilt = false;
+function buildListsSoon() {
+  if (listsBuilt || !manifest) return;
+  listsBuilt = true;
+  const idle = window.requestIdleCallback ?? ((f) => setTimeout(f, 1));
+  idle(buildLists, { timeout: 500 });
+}
+
+function finish(at) {
+  if (state.done) return;
+  state.allLoadedMs = at;
+  state.done = true;
+  for (const worker of boot?.decoders ?? []) worker.terminate();
+  updateStatus();
+  buildListsSoon();
+}
+
+function componentsFailed(ids, error) {
+  if (fatal) return;
+  for (const id of ids) {
+    const entry = logById.get(id);
+    if (entry) entry.error = error;
+    if (!settled.has(id)) {
+      settled.add(id);
+      state.componentsFailed++;
+    }
+  }
+  reportError(error);
+  scheduleStatus();
+  if (settled.size === state.componentsTotal) finish(performance.now());
+}
+
+function onRendererMessage(message) {
+  switch (message?.type) {
+    case 'failed':
+      componentsFailed(message.ids, message.error);
+      break;
+    case 'frame':
+      // The renderer paces the frames that add components to this page's frames.
+      requestAnimationFrame(() => send({ type: 'shown', frame: message.frame }));
+      state.frames = message.frame;
+      drawnSeq = Math.max(drawnSeq, message.seq ?? 0);
+      state.framePending = pagePending || changeSeq > drawnSeq;
+      if (message.drawn.length) {
+        for (const id of message.drawn) {
+          const entry = logById.get(id);
+          if (entry) entry.addedAt = message.at;
+          loaded.add(id);
+          if (!settled.has(id)) {
+            settled.add(id);
+            state.componentsLoaded++;
+          }
+        }
+        state.firstComponentMs ??= message.at;
+        updateStats();
+        if (selectedPart >= 0) showInfo();
+        if (settled.size === state.componentsTotal) finish(message.at);
+      }
+      break;
+    case 'fatal':
+      if (fatal || state.done) break;
+      fatal = true;
+      state.framePending = false;
+      stopStream.abort();
+      reportError(message.error);
+      state.componentsFailed = state.componentsTotal - state.componentsLoaded;
+      finish(message.at);
+      break;
+    case 'picked':
+      if (message.id === pickSeq && manifest) select(message.part);
+      break;
+    case 'timing':
+      state.timings[message.name] = message.at;
+
+      break;
+    default:
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Loading
 
-async function loadManifest(url) {
-  const name = url.pathname.split('/').pop() || url.href;
-  let response;
-  try {
-    response = await fetch(url);
-  } catch (e) {
-    throw new Error(`osteon: ${name}: fetch failed: ${e?.message ?? e}`);
-  }
-  if (!response.ok) throw new Error(`osteon: ${name}: HTTP ${response.status}`);
-  let json;
-  try {
-    json = await response.json();
-  } catch (e) {
-    throw new Error(`osteon: ${name}: not JSON: ${e?.message ?? e}`);
-  }
-  return parseManifest(json);
+let streaming = false;
+const stopStream = new AbortController();  // once nothing can be drawn, nothing more is fetched
+
+/// Streams the chunks: each component decoded as soon as its bytes are in, each mesh passed on to
+/// the renderer (its buffers transferred, not copied).
+async function startStream() {
+  if (streaming || !manifest || fatal || state.done) return;
+  streaming = true;
+  let next = 0;
+  const poolReady = boot.wasm.then((wasm) =>
+    createDecoderPool({ workers: boot.decoders.length, wasm, createWorker: () => boot.decoders[next++] }));
+  poolReady.catch((e) => {
+    const message = String(e?.message ?? e);
+    onRendererMessage({ type: 'fatal', error: message.startsWith('osteon:') ? message : `osteon: cannot start the decoder: ${message}`, at: performance.now() });
+  });
+  // The bootstrap starts the first chunks itself (once three.js is in): the stream takes them up.
+  await boot.chunksStarted;
+  const stream = createChunkStream(planChunks(manifest, boot.manifestUrl), {
+    limit: kChunksInFlight,
+    // The first chunks are already on their way (boot.js).
+    fetchChunk: (chunk) => boot.chunks.get(chunk.index) ?? fetch(chunk.url, { signal: stopStream.signal }),
+    signal: stopStream.signal,
+    // A decoder worker that never started would never answer.
+    decode: async (buffer, range) => {
+      const pool = await poolReady;
+      if (boot.decoderError) throw new Error(`osteon: ${range.label}: ${boot.decoderError}`);
+      return pool.decode(buffer, range.label);
+    },
+    onChunkStart: (chunk, at) => {
+      const start = boot.chunkStarts.get(chunk.index) ?? at;
+      for (const range of chunk.ranges) for (const c of range.components) logById.get(c.id).fetchStart = start;
+    },
+    onReceived: (range, at, bytesReceived) => {
+      for (const c of range.components) logById.get(c.id).fetchEnd = at;
+      state.bytesLoaded = bytesReceived;
+      scheduleStatus();
+    },
+    onDecoded: (range, mesh, at) => {
+      for (const c of range.components) logById.get(c.id).decodedAt = at;
+      if (fatal) return;
+      const buffers = [mesh.positions?.buffer, mesh.indices?.buffer, mesh.normals?.buffer].filter(Boolean);
+      send({ type: 'mesh', ids: range.components.map((c) => c.id), mesh }, buffers);
+    },
+    onFailed: (range, error) => componentsFailed(range.components.map((c) => c.id), error),
+    onChunkError: (chunk, error) => reportError(error),
+  });
+  await stream.run();
+  (await poolReady.catch(() => null))?.terminate();
 }
 
 async function main() {
-  const params = new URLSearchParams(location.search);
-  const manifestUrl = new URL(params.get('manifest') ?? 'manifest.json', location.href);
-  // A worker that fails to start (its script missing, say) answers nothing: the pool rejects the
-  // jobs it had, and decode() below refuses the later ones instead of waiting forever.
-  let workerFailure = null;
-  const poolPromise = createDecoderPool({
-    wasm: new URL('osteon_decoder.wasm', import.meta.url).href,
-    createWorker: () => {
-      const worker = new Worker(new URL(kWorkerFile, import.meta.url), { type: 'module' });
-      worker.addEventListener('error', (e) => {
-        workerFailure ??= `the decoder worker failed: ${e?.message || 'it could not be started'}`;
-      });
-      return worker;
-    },
-  });
-  poolPromise.catch(() => {});  // handled where awaited; avoids an unhandled-rejection report first
-
-  try {
-    manifest = await loadManifest(manifestUrl);
-  } catch (e) {
-    reportError(String(e?.message ?? e));
-    $('progress-text').textContent = 'Could not load the package';
+  if (!boot?.link) {
+    reportError(boot?.rendererError ?? "osteon: the page's bootstrap did not run (index.html without its inline script?)");
+    $('progress-text').textContent = 'Could not start the viewer';
     state.done = true;
+    return;
+  }
+  link = boot.link;
+  state.renderer = boot.offscreen ? 'worker' : 'page';
+  state.timings = boot.timings;  // the renderer's steps are added as they come
+  if (!boot.offscreen) {
+    // No OffscreenCanvas: the renderer runs here, on the channel the bootstrap opened (its
+    // messages have waited there).
+    try {
+      const { startRenderer } = await import(new URL(kRenderWorkerFile, import.meta.url).href);
+      startRenderer(boot.rendererPort, { canvas });
+    } catch (e) {
+      boot.messages.push({ type: 'fatal', error: `osteon: the renderer could not be loaded: ${e?.message ?? e}`, at: performance.now() });
+    }
+  }
+  new ResizeObserver(resize).observe($('view'));
+  resize();  // the camera's aspect, before the view is fitted below
+
+  let text;
+  try {
+    text = await boot.manifest;
+    manifest = parseManifest(JSON.parse(text));
+  } catch (e) {
+    const message = String(e?.message ?? e);
+    reportError(message.startsWith('osteon:') ? message : `osteon: ${new URL(boot.manifestUrl).pathname.split('/').pop()}: not JSON: ${message}`);
+    $('progress-text').textContent = 'Could not load the package';
+    fatal = true;
+    state.framePending = false;
+    state.done = true;
+    for (const worker of boot.decoders) worker.terminate();
     return;
   }
   state.manifestMs = performance.now();
@@ -525,79 +692,44 @@ async function main() {
   state.componentsTotal = manifest.components.length;
   state.instancesTotal = manifest.instances.length;
   state.bytesTotal = manifest.bytesTotal;
-  packageScene = createPackageScene(manifest, root);
+  state.chunksTotal = manifest.chunks.length;
+  state.fetchLog = manifest.streamOrder.map((c) => ({
+    id: c.id,
+    chunk: c.chunk,
+    file: c.file,
+    offset: c.offset,
+    bytes: c.bytes,
+    fetchStart: null,
+    fetchEnd: null,
+    decodedAt: null,
+    addedAt: null,
+    error: null,
+  }));
+  for (const entry of state.fetchLog) logById.set(entry.id, entry);
 
-  // The camera is fitted to the whole package before any bone arrives, so each appears in place.
-  // Near and far from the package's size: 24-bit depth keeps a fraction of a millimetre at the
-  // distance a whole skeleton is seen from, and zooming to a small bone stays unclipped.
-  const radius = Math.max(Math.hypot(...manifest.bounds.max.map((v, i) => v - manifest.bounds.min[i])) / 2, 1e-6);
-  camera.near = radius / 500;
-  camera.far = radius * 60;
+  // The same view the renderer opened with (camera.mjs packageView), then the controls on it.
+  const view = packageView(manifest.bounds, kFovDeg, camera.aspect);
+  camera.near = view.near;
+  camera.far = view.far;
   camera.updateProjectionMatrix();
   fitAll();  // sets camera.up, which OrbitControls reads once, in its constructor
   controls = new OrbitControls(camera, canvas);
   controls.enableDamping = true;
-  controls.maxDistance = radius * 20;
+  controls.maxDistance = view.maxDistance;
   controls.addEventListener('change', requestRender);
   controls.listenToKeyEvents(canvas);
   fitAll();  // again, now that there is a target to set
-  buildLists();
-  showInfo();
+  buildGroups();
   updateClip();
-  updateStatus();
   updateStats();
-
-  let pool;
-  try {
-    pool = await poolPromise;
-  } catch (e) {
-    const message = String(e?.message ?? e);
-    reportError(message.startsWith('osteon:') ? message : `osteon: cannot start the decoder: ${message}`);
-    state.componentsFailed = state.componentsTotal;
-    state.done = true;
-    updateStatus();
-    return;
-  }
-
-  const items = manifest.streamOrder.map((c) => ({ id: c.id, file: c.file, bytes: c.bytes, url: new URL(c.file, manifestUrl) }));
-  const stream = createComponentStream(items, {
-    limit: kFetchesInFlight,
-    fetchBytes: (item) => fetchComponent(item),
-    decode: (bytes, item) => (workerFailure
-      ? Promise.reject(new Error(`osteon: ${item.file}: ${workerFailure}`))
-      : pool.decode(bytes, item.file)),
-    onFetched: (item, entry) => {
-      state.bytesLoaded += entry.receivedBytes;
-      updateStatus();
-    },
-    onDecoded: (item, mesh, entry) => {
-      packageScene.addComponent(item.id, mesh);
-      entry.addedAt = performance.now();
-      state.firstComponentMs ??= entry.addedAt;
-      state.componentsLoaded++;
-      // The visibility of a part hidden before its component arrived applies to it too.
-      if (hiddenParts.size || [...groupOn.values()].includes(false)) packageScene.setVisibility(partVisible);
-      if (selectedPart >= 0) {
-        packageScene.setHighlight(selectedPart);
-        showInfo();
-      }
-      updateStatus();
-      updateStats();
-      requestRender();
-    },
-    onFailed: (item, error) => {
-      state.componentsFailed++;
-      reportError(error);
-      updateStatus();
-    },
-  });
-  state.fetchLog = stream.log();
-  await stream.run();
-  pool.terminate();
-  state.allLoadedMs = performance.now();
-  state.done = true;
   updateStatus();
-  requestRender();
+
+  // What the renderer said before the manifest was read here, then everything after, as it comes.
+  boot.deliver = onRendererMessage;
+  for (const message of boot.messages.splice(0)) onRendererMessage(message);
+  startStream();
+  setTimeout(buildListsSoon, kListsAfterMs);
+  if (state.componentsTotal === 0) finish(performance.now());
 }
 
 main().catch((e) => {

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Reads a package's manifest.json (docs/FORMAT.md, "Package (osteon pack), version 1") into the
-// plain tables the viewer draws from: parts, components by id, instances with their world
-// matrices, the fetch order, and each part's world bounding box (known before any mesh arrives,
-// so the camera can be fitted and a bone framed or clicked before its component has loaded).
+// Reads a package's manifest.json (docs/FORMAT.md, "Package (osteon pack), version 2") into the
+// plain tables the viewer draws from: parts, chunk files, components by id (each a byte range of a
+// chunk), instances with their world matrices, the fetch order, and each part's world bounding box
+// (known before any mesh arrives, so the camera can be fitted and a bone framed or clicked before
+// its component has loaded). It also counts what is drawn from which components are loaded
+// (drawStats, drawInfo), so the page knows without asking the renderer, which may live in a worker.
 //
 // The manifest comes from the network: every field is checked, and a bad one throws
 // Error('osteon: manifest.json: parts[3].prototype: ...') naming the field, instead of failing
@@ -48,13 +50,13 @@ function box(v, where) {
   return { min, max };
 }
 
-/// A component file must stay inside the package: a relative path with no scheme, no "..", no
-/// leading slash, so a manifest cannot make the viewer fetch from another host or folder.
-function componentFile(v, where) {
+/// A chunk file is named by its content hash, inside the package's c/ folder: nothing else is
+/// accepted, so a manifest cannot make the viewer fetch from another host or folder.
+const kChunkFile = /^c\/[0-9a-f]{24}\.ostc$/;
+
+function chunkFile(v, where) {
   const file = string(v, where);
-  if (!/^[A-Za-z0-9._\-/]+$/.test(file) || file.startsWith('/') || file.split('/').some((s) => s === '..' || s === '.' || s === '')) {
-    fail(where, `not a relative path inside the package: ${JSON.stringify(file)}`);
-  }
+  if (!kChunkFile.test(file)) fail(where, `expected "c/<24 lower-case hex digits>.ostc", got ${JSON.stringify(file)}`);
   return file;
 }
 
@@ -86,22 +88,33 @@ export function unionBox(a, b) {
 }
 
 /// Checks a parsed manifest.json and returns:
-///   { unit, bounds, parts, components, componentById: Map, instances, streamOrder (component
-///     objects in fetch order), instancesOf: Map component id -> instance indices,
+///   { unit, bounds, parts, chunks ({ index, file, bytes }), components (each with chunk,
+///     offset, bytes and file, its chunk's file), componentById: Map, instances, streamOrder
+///     (component objects in fetch order), instancesOf: Map component id -> instance indices,
 ///     instancesOfPart: instance indices per part, partBounds: world box per part, groups,
-///     bytesTotal }
+///     bytesTotal (the chunks' bytes) }
 /// Each instance gains `mirror` recomputed from its matrix's determinant (what decides the
 /// winding on screen) and `index`. Throws Error('osteon: manifest.json: <field>: <what>').
 export function parseManifest(json) {
   if (!isObject(json)) fail('top level', 'expected a JSON object');
   if (json.format !== 'osteon-package') fail('format', `expected "osteon-package", got ${JSON.stringify(json.format)}`);
-  if (json.version !== 1) fail('version', `this viewer reads version 1, the package is version ${JSON.stringify(json.version)}`);
+  if (json.version !== 2) fail('version', `this viewer reads version 2, the package is version ${JSON.stringify(json.version)}`);
   const unit = string(json.unit, 'unit');
   if (!kUnits.has(unit)) fail('unit', `expected one of ${[...kUnits].join(', ')}, got ${JSON.stringify(unit)}`);
   const bounds = box(json.bounds, 'bounds');
-  for (const key of ['parts', 'components', 'instances', 'stream_order']) {
+  for (const key of ['chunks', 'parts', 'components', 'instances', 'stream_order']) {
     if (!Array.isArray(json[key])) fail(key, 'expected an array');
   }
+
+  const chunkFiles = new Set();
+  const chunks = json.chunks.map((c, k) => {
+    const where = `chunks[${k}]`;
+    if (!isObject(c)) fail(where, 'expected an object');
+    const file = chunkFile(c.file, `${where}.file`);
+    if (chunkFiles.has(file)) fail(`${where}.file`, `${JSON.stringify(file)} appears twice`);
+    chunkFiles.add(file);
+    return { index: k, file, bytes: count(c.bytes, `${where}.bytes`) };
+  });
 
   const parts = json.parts.map((p, i) => {
     const where = `parts[${i}]`;
@@ -128,11 +141,21 @@ export function parseManifest(json) {
     if (!isObject(c)) fail(where, 'expected an object');
     const id = string(c.id, `${where}.id`);
     if (componentById.has(id)) fail(`${where}.id`, `${JSON.stringify(id)} appears twice`);
+    const k = count(c.chunk, `${where}.chunk`);
+    if (k >= chunks.length) fail(`${where}.chunk`, `no chunk ${k} (the package has ${chunks.length})`);
+    const offset = count(c.offset, `${where}.offset`);
+    const bytes = count(c.bytes, `${where}.bytes`);
+    if (bytes === 0) fail(`${where}.bytes`, 'expected at least one byte');
+    if (offset + bytes > chunks[k].bytes) {
+      fail(`${where}.bytes`, `bytes ${offset}-${offset + bytes} lie beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);
+    }
     const component = {
       id,
       index: i,
-      file: componentFile(c.file, `${where}.file`),
-      bytes: count(c.bytes, `${where}.bytes`),
+      chunk: k,
+      offset,
+      bytes,
+      file: chunks[k].file,
       triangles: count(c.triangles, `${where}.triangles`),
       vertices: count(c.vertices, `${where}.vertices`),
       bounds: box(c.bounds, `${where}.bounds`),
@@ -185,10 +208,12 @@ export function parseManifest(json) {
   // A part without instances (none should exist) still gets a box, so framing it does not fail.
   for (let i = 0; i < parts.length; ++i) partBounds[i] ??= bounds;
   const groups = [...new Set(parts.map((p) => p.group))];
+  const used = new Set(components.map((c) => c.chunk));
   return {
     unit,
     bounds,
     parts,
+    chunks,
     components,
     componentById,
     instances,
@@ -197,7 +222,7 @@ export function parseManifest(json) {
     instancesOfPart,
     partBounds,
     groups,
-    bytesTotal: components.reduce((sum, c) => sum + c.bytes, 0),
+    bytesTotal: chunks.reduce((sum, c) => sum + (used.has(c.index) ? c.bytes : 0), 0),
   };
 }
 
@@ -215,4 +240,41 @@ export function findPart(manifest, query) {
 export function formatLength(value, unit) {
   const text = value === 0 ? '0' : Math.abs(value) >= 1000 ? value.toFixed(0) : value.toPrecision(3);
   return unit === 'unknown' ? `${text} units` : `${text} ${unit}`;
+}
+
+/// What is drawn once the components in `loaded` (a Set of ids) are on screen and the parts for
+/// which `partVisible(partId)` holds are shown: { instances, triangles, drawCalls, components }.
+/// It counts the way scene.mjs draws (one Mesh for a component one instance uses; otherwise one
+/// InstancedMesh for the instances that keep the winding and one for the mirrored ones, each a
+/// draw call while any of its instances shows), so the page knows it without the renderer.
+export function drawStats(manifest, loaded, partVisible) {
+  let instances = 0;
+  let triangles = 0;
+  let drawCalls = 0;
+  for (const id of loaded) {
+    const component = manifest.componentById.get(id);
+    const uses = manifest.instancesOf.get(id);
+    const batches = uses.length === 1 ? [uses] : [false, true].map((m) => uses.filter((i) => manifest.instances[i].mirror === m));
+    for (const batch of batches) {
+      const shown = batch.filter((i) => partVisible(manifest.instances[i].part)).length;
+      instances += shown;
+      triangles += shown * component.triangles;
+      drawCalls += shown > 0 ? 1 : 0;
+    }
+  }
+  return { instances, triangles, drawCalls, components: loaded.size };
+}
+
+/// How a part is drawn, per instance: { instance, component, loaded, instanced, batchSize,
+/// mirror } (batchSize: the instances in its draw call's batch, 0 while not loaded), as
+/// scene.mjs draws it.
+export function drawInfo(manifest, partId, loaded) {
+  return manifest.instancesOfPart[partId].map((i) => {
+    const { component, mirror } = manifest.instances[i];
+    const uses = manifest.instancesOf.get(component);
+    const instanced = uses.length > 1;
+    const isLoaded = loaded.has(component);
+    const batchSize = !isLoaded ? 0 : instanced ? uses.filter((j) => manifest.instances[j].mirror === mirror).length : 1;
+    return { instance: i, component, loaded: isLoaded, instanced, batchSize, mirror };
+  });
 }

@@ -19,6 +19,7 @@
 // Based on: three.js InstancedMesh and Mesh (matrixWorld.determinant() < 0 -> flipped front face).
 
 import {
+  Box3,
   BufferAttribute,
   BufferGeometry,
   Color,
@@ -27,6 +28,8 @@ import {
   Matrix4,
   Mesh,
   MeshStandardMaterial,
+  Sphere,
+  Vector3,
 } from 'three';
 
 const kBoneColor = 0xd9cdb5;
@@ -44,9 +47,16 @@ export function flipWinding(indices) {
 }
 
 /// The geometry of one decoded mesh ({ positions, indices, normals } from the WebAssembly decoder).
-/// The decoder's smooth normals are used when they match the positions, else recomputed.
-export function meshGeometry(mesh) {
+/// The decoder's smooth normals are used when they match the positions, else recomputed. With
+/// `component` (the manifest's), the bounding box and sphere come from its bounds grown by its
+/// error bound (every decoded vertex lies within it), instead of a pass over the vertices.
+export function meshGeometry(mesh, component) {
   const geometry = new BufferGeometry();
+  if (component) {
+    const grow = Math.max(component.errorBound, 0);
+    geometry.boundingBox = new Box3(new Vector3(...component.bounds.min), new Vector3(...component.bounds.max)).expandByScalar(grow);
+    geometry.boundingSphere = geometry.boundingBox.getBoundingSphere(new Sphere());
+  }
   geometry.setAttribute('position', new BufferAttribute(mesh.positions, 3));
   geometry.setIndex(new BufferAttribute(mesh.indices, 1));
   if (mesh.normals && mesh.normals.length === mesh.positions.length) {
@@ -108,12 +118,12 @@ export function createPackageScene(manifest, root) {
   function addComponent(id, mesh) {
     const component = manifest.componentById.get(id);
     if (!component) throw new Error(`osteon: no component ${id} in the manifest`);
-    if (loaded.has(id)) throw new Error(`osteon: ${component.file}: added twice`);
+    if (loaded.has(id)) throw new Error(`osteon: component ${id}: added twice`);
     const triangles = mesh.indices.length / 3;
     if (triangles !== component.triangles) {
-      throw new Error(`osteon: ${component.file}: decoded ${triangles} triangles, the manifest says ${component.triangles}`);
+      throw new Error(`osteon: ${component.file} (component ${id}): decoded ${triangles} triangles, the manifest says ${component.triangles}`);
     }
-    const geometry = meshGeometry(mesh);
+    const geometry = meshGeometry(mesh, component);
     const uses = manifest.instancesOf.get(id);
     const made = [];
     if (uses.length === 1) {
@@ -121,7 +131,7 @@ export function createPackageScene(manifest, root) {
       object.matrixAutoUpdate = false;
       object.matrix.fromArray(manifest.instances[uses[0]].matrix);
       object.matrixWorldNeedsUpdate = true;  // matrixAutoUpdate is off: nothing else sets it
-      object.name = component.file;
+      object.name = id;
       made.push({ object, instances: uses, instanced: false, mirror: manifest.instances[uses[0]].mirror });
     } else {
       let flipped = null;
@@ -131,13 +141,15 @@ export function createPackageScene(manifest, root) {
         let g = geometry;
         if (mirror) {
           flipped ??= new BufferGeometry();
+          flipped.boundingBox = geometry.boundingBox;
+          flipped.boundingSphere = geometry.boundingSphere;
           flipped.setAttribute('position', geometry.getAttribute('position'));
           flipped.setAttribute('normal', geometry.getAttribute('normal'));
           flipped.setIndex(new BufferAttribute(flipWinding(geometry.index.array), 1));
           g = flipped;
         }
         const object = new InstancedMesh(g, material, instances.length);
-        object.name = `${component.file}${mirror ? ' (mirrored)' : ''}`;
+        object.name = `${id}${mirror ? ' (mirrored)' : ''}`;
         // Instance colours exist from the start, so the shader is compiled once with them.
         object.setColorAt(0, kWhite);
         made.push({ object, instances, instanced: true, mirror });

@@ -1,105 +1,166 @@
 // SPDX-License-Identifier: Apache-2.0
-// Streams a package's components: fetched in the manifest's stream_order with a bounded number of
-// requests in flight, each handed to the decoder the moment its bytes have arrived, and reported
-// the moment it is decoded, so the page draws bone by bone instead of waiting for the last one.
-// A failed fetch or decode is reported and the rest goes on.
+// Streams a package's chunk files (docs/FORMAT.md, "Package", version 2): the chunks are fetched in
+// the manifest's order with at most two in flight, each read as a stream, and every component is
+// copied out and handed to the decoder the moment its last byte has arrived, so the first bones
+// are drawn while the rest of the chunk is still on the wire.
 //
-// The bound keeps a slow connection busy without letting a big package open hundreds of requests
-// at once (browsers queue beyond ~6 per host on HTTP/1.1 anyway, and the order would be lost);
-// a fetch slot is freed when the bytes have arrived, not when they are decoded, so decoding never
-// holds the network back. No DOM and no three.js: Node tests run it with fake fetch and decode.
+// Why chunks and a stream reader: a skeleton has hundreds of small components (BodyParts3D: 237 of
+// 2.7 KB on average). One request each costs a round trip per six components on HTTP/1.1, which
+// dominated the load on a 40 ms link; a few large files read as streams cost a round trip each
+// and lose nothing in progressiveness. Two chunks in flight keep the link busy across the gap
+// between one chunk's end and the next one's first byte without splitting the bandwidth further.
+//
+// Failures stay as small as the data allows: a chunk that cannot be fetched, or that ends early,
+// fails only the components whose bytes had not all arrived (each one reported, naming the chunk
+// file); a stream the decoder rejects fails its component alone. The rest goes on.
+//
+// No DOM and no three.js: Node tests run it with fake fetch and decode.
 
-/// Loads every item of `items` ({ id, url, file, bytes } in fetch order). Callbacks:
-///   fetchBytes(item) -> Promise<Uint8Array>      (throws on HTTP errors)
-///   decode(bytes, item) -> Promise<mesh>         (throws on bad streams)
-///   onDecoded(item, mesh, entry), onFailed(item, error, entry), onFetched(item, entry)
-/// `entry` is the item's log record { id, file, bytes, fetchStart, fetchEnd, decodedAt, error }
-/// (times from `now()`, default performance.now()); log() returns every record in fetch order.
-/// Resolves when every item is decoded or has failed; never rejects for one item's failure.
-export function createComponentStream(items, options) {
-  const { fetchBytes, decode, onDecoded = () => {}, onFailed = () => {}, onFetched = () => {} } = options;
-  const limit = Math.max(1, options.limit ?? 6);
-  const now = options.now ?? (() => performance.now());
-  const entries = items.map((item) => ({
-    id: item.id,
-    file: item.file,
-    bytes: item.bytes,
-    fetchStart: null,
-    fetchEnd: null,
-    decodedAt: null,
-    error: null,
+/// The fetch plan of a parsed manifest (manifest.mjs): the chunks that hold components, in the
+/// manifest's order, each with its distinct byte ranges sorted by where they end (the order the
+/// bytes complete them). Components with byte-identical streams share one range (docs/FORMAT.md:
+/// dedup) and are decoded once. Returns [{ index, file, url, bytes, ranges: [{ offset, bytes, end,
+/// components: [component, ...], label }] }]; `url` is resolved against `base`.
+export function planChunks(manifest, base) {
+  const plans = manifest.chunks.map((chunk) => ({
+    index: chunk.index,
+    file: chunk.file,
+    url: base === undefined ? chunk.file : new URL(chunk.file, base).href,
+    bytes: chunk.bytes,
+    ranges: new Map(),
   }));
-
-  async function loadOne(index) {
-    const item = items[index];
-    const entry = entries[index];
-    entry.fetchStart = now();
-    let bytes;
-    try {
-      bytes = await fetchBytes(item);
-    } catch (e) {
-      entry.fetchEnd = now();
-      entry.error = message(e, item);
-      onFailed(item, entry.error, entry);
-      return { decoded: null };
+  for (const component of manifest.streamOrder) {
+    const plan = plans[component.chunk];
+    const key = `${component.offset}:${component.bytes}`;
+    let range = plan.ranges.get(key);
+    if (!range) {
+      range = { offset: component.offset, bytes: component.bytes, end: component.offset + component.bytes, components: [] };
+      plan.ranges.set(key, range);
     }
-    entry.fetchEnd = now();
-    entry.receivedBytes = bytes.byteLength;
-    onFetched(item, entry);
-    // The decode runs on after this slot is released: wrapped in an object, since an async
-    // function returning a promise would make the caller wait for the decode too.
-    const decoded = Promise.resolve().then(() => decode(bytes, item)).then(
-      (mesh) => {
-        entry.decodedAt = now();
-        onDecoded(item, mesh, entry);
-      },
-      (e) => {
-        entry.decodedAt = now();
-        entry.error = message(e, item);
-        onFailed(item, entry.error, entry);
-      },
-    ).catch((e) => {
-      // A throwing onDecoded (e.g. the GPU upload failed) is that component's failure too.
-      entry.error = message(e, item);
-      onFailed(item, entry.error, entry);
+    range.components.push(component);
+  }
+  return plans
+    .filter((plan) => plan.ranges.size > 0)  // a chunk no component names is not worth a request
+    .map((plan) => {
+      const ranges = [...plan.ranges.values()].sort((a, b) => a.end - b.end || a.offset - b.offset);
+      for (const range of ranges) range.label = rangeLabel(plan.file, range);
+      return { ...plan, ranges };
     });
-    return { decoded };
+}
+
+/// How a range is named in messages: "c/<h>.ostc (component c7, bytes 120-2338)".
+function rangeLabel(file, range) {
+  const ids = range.components.map((c) => c.id);
+  return `${file} (component${ids.length > 1 ? 's' : ''} ${ids.join(', ')}, bytes ${range.offset}-${range.end})`;
+}
+
+/// Loads the chunks of `plan` (planChunks). Options:
+///   fetchChunk(chunk) -> Promise<Response>        fetch(); its body is read as a stream
+///   decode(buffer, range) -> Promise<mesh>        buffer: an ArrayBuffer of the range's bytes
+///                                                 alone (transfer it); throws on a bad stream
+///   onChunkStart(chunk, time)
+///   onReceived(range, time, bytesReceived)       the range's last byte arrived; bytesReceived
+///                                                 counts every chunk's bytes so far
+///   onDecoded(range, mesh, time)                  a throw here fails the range too
+///   onFailed(range, message, time)                'osteon: c/<h>.ostc (component c7, ...): ...'
+///   onChunkError(chunk, message)                  a chunk longer than the manifest says (its
+///                                                 ranges were all delivered; they decode or not)
+///   limit (default 2), now (default performance.now), signal (an AbortSignal: once aborted, no
+///   further chunk is started; pass it to fetch() too, to cut the ones in flight)
+/// run() resolves when every range is decoded or has failed; it never rejects for one failure.
+export function createChunkStream(plan, options) {
+  const {
+    fetchChunk,
+    decode,
+    onChunkStart = () => {},
+    onReceived = () => {},
+    onDecoded = () => {},
+    onFailed = () => {},
+    onChunkError = () => {},
+  } = options;
+  const limit = Math.max(1, options.limit ?? 2);
+  const now = options.now ?? (() => performance.now());
+  let bytesReceived = 0;
+  const decodes = [];
+
+  function fail(range, what) {
+    onFailed(range, `osteon: ${range.label}: ${what}`, now());
+  }
+
+  function startDecode(range, buffer) {
+    decodes.push(Promise.resolve()
+      .then(() => decode(buffer, range))
+      .then((mesh) => onDecoded(range, mesh, now()))
+      .catch((e) => {
+        const text = String(e?.message ?? e);
+        // The decoder's messages already read 'osteon: <label>: ...'.
+        onFailed(range, text.startsWith('osteon:') ? text : `osteon: ${range.label}: ${text}`, now());
+      }));
+  }
+
+  async function loadChunk(chunk) {
+    onChunkStart(chunk, now());
+    let next = 0;  // ranges[0 .. next) have all their bytes
+    const failRest = (what) => {
+      for (; next < chunk.ranges.length; ++next) fail(chunk.ranges[next], what);
+    };
+    let response;
+    try {
+      response = await fetchChunk(chunk);
+    } catch (e) {
+      return failRest(`fetch failed: ${e?.message ?? e}`);
+    }
+    if (!response.ok) return failRest(`HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
+
+    const buffer = new Uint8Array(chunk.bytes);
+    let received = 0;
+    let overflow = false;
+    const take = (piece) => {
+      const fits = Math.min(piece.length, chunk.bytes - received);
+      if (fits < piece.length) overflow = true;
+      buffer.set(fits === piece.length ? piece : piece.subarray(0, fits), received);
+      received += fits;
+      bytesReceived += fits;
+      while (next < chunk.ranges.length && chunk.ranges[next].end <= received) {
+        const range = chunk.ranges[next++];
+        onReceived(range, now(), bytesReceived);
+        // A copy of the range alone: its buffer goes to a decoder worker and the chunk's stays.
+        startDecode(range, buffer.slice(range.offset, range.end).buffer);
+      }
+    };
+    try {
+      const reader = response.body?.getReader?.();
+      if (!reader) {
+        // No streams (an old browser, or a test's fake response): the whole body at once.
+        take(new Uint8Array(await response.arrayBuffer()));
+      } else {
+        for (;;) {
+          const { done, value } = await reader.read();
+          if (done) break;
+          take(value);
+          if (overflow) {
+            reader.cancel().catch(() => {});
+            break;
+          }
+        }
+      }
+    } catch (e) {
+      return failRest(`the download broke off after ${received} of ${chunk.bytes} bytes: ${e?.message ?? e}`);
+    }
+    if (overflow) onChunkError(chunk, `osteon: ${chunk.file}: more than the ${chunk.bytes} bytes the manifest says`);
+    if (received < chunk.bytes) failRest(`${received} bytes, the manifest says ${chunk.bytes}`);
   }
 
   async function run() {
-    const decodes = [];
     let next = 0;
+    // Each lane takes the next chunk when its current one has all its bytes: decoding never holds
+    // the network back.
     async function lane() {
-      while (next < items.length) {
-        const index = next++;
-        decodes.push((await loadOne(index)).decoded);
-      }
+      while (next < plan.length && !options.signal?.aborted) await loadChunk(plan[next++]);
     }
-    await Promise.all(Array.from({ length: Math.min(limit, items.length) }, lane));
+    await Promise.all(Array.from({ length: Math.min(limit, plan.length) }, lane));
     await Promise.all(decodes);
   }
 
-  return { run, log: () => entries };
-}
-
-function message(e, item) {
-  const text = String(e?.message ?? e);
-  return text.startsWith('osteon:') ? text : `osteon: ${item.file}: ${text}`;
-}
-
-/// fetch() for one component: the bytes, checked against the size the manifest gives (a truncated
-/// or replaced file is named here, before the decoder sees it). Errors name the file.
-export async function fetchComponent(item, fetchImpl = fetch) {
-  let response;
-  try {
-    response = await fetchImpl(item.url);
-  } catch (e) {
-    throw new Error(`osteon: ${item.file}: fetch failed: ${e?.message ?? e}`);
-  }
-  if (!response.ok) throw new Error(`osteon: ${item.file}: HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
-  const bytes = new Uint8Array(await response.arrayBuffer());
-  if (item.bytes !== undefined && bytes.byteLength !== item.bytes) {
-    throw new Error(`osteon: ${item.file}: ${bytes.byteLength} bytes, the manifest says ${item.bytes}`);
-  }
-  return bytes;
+  return { run };
 }

@@ -1,0 +1,159 @@
+// SPDX-License-Identifier: Apache-2.0
+// The viewer's bootstrap: build.mjs minifies this classic script into index.html, after the
+// canvas, so it runs while the page is still being parsed, before any other script has arrived.
+// It starts everything the first bones need, at once and in parallel:
+//   - manifest.json (or ?manifest=URL);
+//   - the WebAssembly decoder, fetched and compiled (off the main thread: WebAssembly.compile is
+//     asynchronous);
+//   - the render worker (render_worker.mjs, inlined in the page), given the canvas as an
+//     OffscreenCanvas and the manifest: it creates the WebGL context while three.js downloads;
+//   - three.js's part of the renderer (render_three.mjs), fetched here and handed to the render
+//     worker as text: fetched by the worker, it would wait for the worker's own script to arrive
+//     and start (a round trip or more); once it is in, the first two chunk files (the stream
+//     keeps two in flight);
+//   - the decoder workers (hardware threads - 1, 1 to 4), so their script is in by the time the
+//     first component is.
+// The page's script (main.mjs) picks up what is in flight from window.osteonBoot:
+//   { manifestUrl, manifest: Promise<text>, chunks: Map chunk index -> Promise<Response>,
+//     chunkStarts: Map chunk index -> performance.now() when its fetch started, chunksStarted
+//     (a Promise: settled once the first chunks are on their way, or will not be),
+//     wasm: Promise<WebAssembly.Module>, decoders: [Worker], decoderError, link (the render
+//     worker, or a MessagePort to the renderer when it runs on the page), rendererPort (that case
+//     only: the renderer's end), offscreen, messages (what the renderer said before main.mjs set
+//     `deliver`, its handler), rendererError }
+// Where a canvas cannot be handed to a worker (no OffscreenCanvas; or ?render=page), the
+// renderer runs on the page's main thread instead: main.mjs starts it on `rendererPort`.
+//
+// No dependencies and no modules: this must run before anything else has downloaded.
+/* global OSTEON_RENDER_WORKER_CODE, OSTEON_RENDER_WORKER_FILE, OSTEON_RENDER_THREE_FILE, OSTEON_DECODER_WORKER_FILE */
+(() => {
+  const params = new URLSearchParams(location.search);
+  const manifestUrl = new URL(params.get('manifest') || 'manifest.json', location.href);
+  const manifestName = manifestUrl.pathname.split('/').pop() || manifestUrl.href;
+  const boot = {
+    manifestUrl: manifestUrl.href,
+    chunks: new Map(),
+    chunkStarts: new Map(),
+    messages: [],
+    rendererError: null,
+    decoders: [],
+    decoderError: null,
+    timings: {},  // when the manifest and three.js's text arrived here (window.osteon.timings)
+  };
+  window.osteonBoot = boot;
+  const text = (e) => String((e && e.message) || e);
+  // The renderer's messages: kept until main.mjs sets boot.deliver, then handed to it.
+  const deliver = (message) => (boot.deliver ? boot.deliver(message) : boot.messages.push(message));
+
+  boot.manifest = fetch(manifestUrl, { priority: 'high' }).then(
+    async (response) => {
+      if (!response.ok) throw new Error(`osteon: ${manifestName}: HTTP ${response.status}`);
+      const manifestText = await response.text();
+      boot.timings.manifest = performance.now();
+      return manifestText;
+    },
+    (e) => {
+      throw new Error(`osteon: ${manifestName}: fetch failed: ${text(e)}`);
+    },
+  );
+  boot.manifest.catch(() => {});  // main.mjs reports it
+  const three = fetch(OSTEON_RENDER_THREE_FILE, { priority: 'high' }).then(async (response) => {
+    if (!response.ok) throw new Error(`HTTP ${response.status}`);
+    const code = await response.text();
+    boot.timings.threeFetched = performance.now();
+    return code;
+  });
+  // The first two chunks, once the manifest names them and three.js has arrived: until the
+  // renderer has its code no bone can be drawn, and a chunk downloading beside three.js takes a
+  // share of the link that three.js would then wait for. (main.mjs checks the manifest in full;
+  // here only the file names are checked, as the fetch needs them.)
+  boot.chunksStarted = Promise.all([boot.manifest, three.catch(() => {})]).then(([manifestText]) => {
+    const chunks = JSON.parse(manifestText).chunks;
+    for (let k = 0; k < Math.min(2, chunks.length); ++k) {
+      if (!/^c\/[0-9a-f]{24}\.ostc$/.test(chunks[k].file)) continue;
+      const response = fetch(new URL(chunks[k].file, manifestUrl));
+      response.catch(() => {});  // main.mjs reports it, naming the chunk's components
+      boot.chunks.set(k, response);
+      boot.chunkStarts.set(k, performance.now());
+    }
+  }).catch(() => {});
+  boot.wasm = fetch('osteon_decoder.wasm', { priority: 'high' })
+    .then((response) => {
+      if (!response.ok) throw new Error(`osteon: cannot load osteon_decoder.wasm: HTTP ${response.status}`);
+      return response.arrayBuffer();
+    })
+    .then((bytes) => WebAssembly.compile(bytes));
+  boot.wasm.catch(() => {});  // main.mjs reports it
+
+  let link = null;
+  const canvas = document.getElementById('canvas');
+  const rect = canvas.getBoundingClientRect();
+  const init = {
+    type: 'init',
+    width: Math.max(1, Math.floor(rect.width)),
+    height: Math.max(1, Math.floor(rect.height)),
+    pixelRatio: Math.min(window.devicePixelRatio || 1, 2),
+    pageOrigin: performance.timeOrigin,
+    base: location.href,
+  };
+  boot.offscreen = false;
+  if (canvas.transferControlToOffscreen && params.get('render') !== 'page') {
+    let worker = null;
+    try {
+      // The worker's script is inlined here (build.mjs): it starts now, not a round trip later.
+      // A content security policy may refuse blob: workers; then it comes from its file.
+      try {
+        worker = new Worker(URL.createObjectURL(new Blob([OSTEON_RENDER_WORKER_CODE], { type: 'text/javascript' })), { type: 'module' });
+      } catch (e) {
+        worker = new Worker(OSTEON_RENDER_WORKER_FILE, { type: 'module' });
+      }
+      init.canvas = canvas.transferControlToOffscreen();
+    } catch (e) {
+      // No module workers, say: the renderer runs on the page instead (below).
+      worker?.terminate();
+      worker = null;
+    }
+    if (worker) {
+      link = worker;
+      worker.addEventListener('error', (e) => {
+        boot.rendererError = `osteon: the render worker failed: ${e.message || 'its script could not be loaded'}`;
+        deliver({ type: 'fatal', error: boot.rendererError, at: performance.now() });
+      });
+      worker.postMessage(init, [init.canvas]);
+      boot.offscreen = true;
+    }
+  }
+  if (!boot.offscreen) {
+    // The renderer will run here; its messages wait on the channel until main.mjs starts it.
+    const channel = new MessageChannel();
+    link = channel.port1;
+    boot.rendererPort = channel.port2;
+    link.postMessage(init);
+  }
+  boot.link = link;
+  link.onmessage = (e) => deliver(e.data);
+
+  // The decoder workers after the render worker: theirs is not the first script needed.
+  const workers = Math.max(1, Math.min(4, (navigator.hardwareConcurrency || 2) - 1));
+  for (let i = 0; i < workers; ++i) {
+    try {
+      const worker = new Worker(OSTEON_DECODER_WORKER_FILE, { type: 'module' });
+      // A worker that cannot start answers nothing; main.mjs refuses to wait on it.
+      worker.addEventListener('error', (e) => {
+        boot.decoderError ??= `the decoder worker failed: ${e.message || 'its script could not be loaded'}`;
+      });
+      boot.decoders.push(worker);
+    } catch (e) {
+      boot.decoderError ??= `cannot start a decoder worker: ${text(e)}`;
+    }
+  }
+
+  boot.manifest.then(
+    (manifest) => link.postMessage({ type: 'manifest', text: manifest }),
+    (e) => link.postMessage({ type: 'manifest', error: text(e) }),
+  );
+  three.then(
+    (code) => link.postMessage({ type: 'three', text: code }),
+    (e) => link.postMessage({ type: 'three', error: text(e) }),
+  );
+})();

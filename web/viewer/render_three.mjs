@@ -1,0 +1,151 @@
+// SPDX-License-Identifier: Apache-2.0
+// The three.js half of the render worker (render_worker.mjs imports it once the worker runs): the
+// renderer on the canvas the worker was given, the scene with its lights, the camera the page
+// steers, and the package's draw objects (scene.mjs). It draws when told to and answers picks.
+//
+// Frames are drawn on demand only (the worker asks for one when a component, a camera move, a
+// resize or a visibility change arrives): an idle viewer costs nothing.
+//
+// Based on: three.js WebGLRenderer on an OffscreenCanvas; three.js compile() to build programs
+// before they are needed.
+
+import {
+  BufferAttribute,
+  BufferGeometry,
+  Color,
+  DirectionalLight,
+  Group,
+  HemisphereLight,
+  InstancedMesh,
+  Mesh,
+  Object3D,
+  PerspectiveCamera,
+  Plane,
+  Raycaster,
+  Scene,
+  Vector2,
+  Vector3,
+  WebGLRenderer,
+} from 'three';
+
+import { kBackground, kFovDeg, packageView } from './camera.mjs';
+import { createPackageScene } from './scene.mjs';
+
+/// Creates the view of `manifest` (manifest.mjs) on `canvas` (an OffscreenCanvas or a canvas
+/// element) with `context`, a WebGL 2 context made on it with the renderer's attributes.
+/// `width`, `height`: the canvas's size in CSS pixels; `pixelRatio`: device pixels per CSS pixel.
+export function createView({ canvas, context, manifest, width, height, pixelRatio }) {
+  const renderer = new WebGLRenderer({ canvas, context, antialias: true });
+  renderer.localClippingEnabled = true;  // the clipping plane is set per material
+  const scene = new Scene();
+  scene.background = new Color(kBackground);
+  const camera = new PerspectiveCamera(kFovDeg, Math.max(width, 1) / Math.max(height, 1), 0.1, 1000);
+  const root = new Group();
+  scene.add(root, camera);
+  // Sky and ground light, plus a light that moves with the camera so the side in view is always
+  // lit. The headlight comes from above and to the right of the eye: straight from the eye, every
+  // surface facing the camera would be equally bright and the bones' relief would vanish.
+  scene.add(new HemisphereLight(0xffffff, 0x4a4036, 0.7));
+  const headlight = new DirectionalLight(0xffffff, 2.4);
+  headlight.position.set(0.6, 0.9, 1);  // in camera space
+  const headlightTarget = new Object3D();
+  headlightTarget.position.set(0, 0, -1);
+  camera.add(headlight, headlightTarget);
+  headlight.target = headlightTarget;
+  const clipPlane = new Plane(new Vector3(0, 0, 1), 0);
+  let clipping = false;
+  const raycaster = new Raycaster();
+  const packageScene = createPackageScene(manifest, root);
+
+  let size = '';
+  function setSize({ width: w, height: h, pixelRatio: ratio }) {
+    // Setting a canvas's size, even to the same value, clears what it shows.
+    if (size === `${w}x${h}@${ratio}`) return;
+    size = `${w}x${h}@${ratio}`;
+    renderer.setPixelRatio(ratio);
+    renderer.setSize(Math.max(1, w), Math.max(1, h), false);  // an OffscreenCanvas has no style
+    camera.aspect = Math.max(1, w) / Math.max(1, h);
+    camera.updateProjectionMatrix();
+  }
+  setSize({ width, height, pixelRatio });
+
+  // Until the page steers the camera, the view it will open with (the same computation there).
+  const initial = packageView(manifest.bounds, kFovDeg, camera.aspect);
+  camera.near = initial.near;
+  camera.far = initial.far;
+  camera.position.copy(initial.position);
+  camera.up.copy(initial.up);
+  camera.lookAt(initial.target);
+  camera.updateProjectionMatrix();
+
+  return {
+    add: (id, mesh) => packageScene.addComponent(id, mesh),
+
+    render() {
+      renderer.render(scene, camera);
+    },
+
+    /// Compiles the programs the bone material needs (a plain mesh and an instanced batch with
+    /// instance colours, under this scene's lights) on stand-in geometry, and draws them once, on
+    /// the canvas: linking and the driver's own pipeline for the canvas's framebuffer happen at
+    /// the first draw (with no parallel shader compilation; SwiftShader has none), and the first
+    /// frame with bones would otherwise wait for them. (Drawn into a render target instead, the
+    /// canvas would get no empty frame, but three.js would compile other programs: a target
+    /// gets linear output, the canvas sRGB.)
+    precompile() {
+      const geometry = new BufferGeometry();
+      geometry.setAttribute('position', new BufferAttribute(new Float32Array(9), 3));
+      geometry.setAttribute('normal', new BufferAttribute(new Float32Array([0, 0, 1, 0, 0, 1, 0, 0, 1]), 3));
+      geometry.setIndex(new BufferAttribute(new Uint32Array([0, 1, 2]), 1));
+      const material = packageScene.materials[0];
+      const single = new Mesh(geometry, material);
+      const batch = new InstancedMesh(geometry, material, 1);
+      batch.setColorAt(0, new Color(1, 1, 1));
+      for (const object of [single, batch]) {
+        object.frustumCulled = false;
+        root.add(object);
+      }
+      renderer.compile(scene, camera);
+      renderer.render(scene, camera);  // a degenerate triangle: draws nothing but the background
+      root.remove(single, batch);
+      batch.dispose();
+      geometry.dispose();
+    },
+
+    setCamera({ position, quaternion, up, fov, aspect, near, far }) {
+      camera.position.fromArray(position);
+      camera.quaternion.fromArray(quaternion);
+      camera.up.fromArray(up);
+      Object.assign(camera, { fov, aspect, near, far });
+      camera.updateProjectionMatrix();
+    },
+
+    setSize,
+
+    setParts({ hidden, highlight }) {
+      packageScene.setVisibility((part) => !hidden[part]);
+      packageScene.setHighlight(highlight);
+    },
+
+    setClip({ on, normal, constant }) {
+      clipPlane.normal.fromArray(normal);
+      clipPlane.constant = constant;
+      clipping = on;
+      for (const material of packageScene.materials) {
+        const planes = on ? [clipPlane] : null;
+        if ((material.clippingPlanes?.length ?? 0) !== (planes?.length ?? 0)) material.needsUpdate = true;
+        material.clippingPlanes = planes;
+      }
+    },
+
+    /// The part under `ndc` (normalized device coordinates, [-1, 1] each), or -1. Raycasts ignore
+    /// clipping planes: hits on the side cut away are skipped.
+    pick(ndc) {
+      camera.updateMatrixWorld();
+      raycaster.setFromCamera(new Vector2(ndc[0], ndc[1]), camera);
+      const hit = raycaster.intersectObjects(packageScene.pickable(), false)
+        .find((h) => !clipping || clipPlane.distanceToPoint(h.point) >= 0);
+      return hit ? packageScene.partOf(hit) : -1;
+    },
+  };
+}
