@@ -16,8 +16,9 @@ fail() { echo "bench/web: error: $*" >&2; exit 1; }
 
 command -v node >/dev/null || fail "node is not installed (Debian: apt-get install nodejs npm)"
 command -v npm >/dev/null || fail "npm is not installed (Debian: apt-get install npm)"
-node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 18 ? 0 : 1)' ||
-  fail "node $(node --version) is too old: bench/web needs Node 18 or later"
+# @gltf-transform/cli (the Draco way's encoder) needs Node 20; Debian 12's own nodejs is 18.
+node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 20 ? 0 : 1)' ||
+  fail "node $(node --version) is too old: bench/web needs Node 20 or later (@gltf-transform/cli)"
 
 # npm ci only when package-lock.json changed since the last install (it deletes node_modules).
 lock_hash=$(sha256sum "$here/package-lock.json" | cut -d' ' -f1)
