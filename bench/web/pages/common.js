@@ -101,6 +101,19 @@ export function fail(error) {
 /// the scene (its materials replaced by the shared bone material, the camera refitted to everything
 /// added so far: a page of separate files cannot know the whole box before the last arrives);
 /// setComplete() says every file has loaded.
+/// Loads `url` with a configured GLTFLoader into a new view and marks it complete (the one-file
+/// ways: Draco glTF and gltfpack).
+export function loadOneGlb(loader, url = 'scene.glb') {
+  const view = createView();
+  return loader
+    .loadAsync(url)
+    .then((gltf) => {
+      view.add(gltf.scene);
+      view.setComplete();
+    })
+    .catch(fail);
+}
+
 export function createView() {
   const params = new URLSearchParams(location.search);
   const width = Number(params.get('w')) || window.innerWidth;

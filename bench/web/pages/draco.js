@@ -7,16 +7,8 @@
 
 import { DRACOLoader } from 'three/examples/jsm/loaders/DRACOLoader.js';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
-import { createView, fail } from './common.js';
+import { loadOneGlb } from './common.js';
 
-const view = createView();
 const draco = new DRACOLoader().setDecoderPath('./draco/');
 draco.preload();
-const loader = new GLTFLoader().setDRACOLoader(draco);
-loader
-  .loadAsync('scene.glb')
-  .then((gltf) => {
-    view.add(gltf.scene);
-    view.setComplete();
-  })
-  .catch(fail);
+loadOneGlb(new GLTFLoader().setDRACOLoader(draco));

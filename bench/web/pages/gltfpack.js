@@ -6,14 +6,6 @@
 
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { MeshoptDecoder } from 'three/examples/jsm/libs/meshopt_decoder.module.js';
-import { createView, fail } from './common.js';
+import { loadOneGlb } from './common.js';
 
-const view = createView();
-const loader = new GLTFLoader().setMeshoptDecoder(MeshoptDecoder);
-loader
-  .loadAsync('scene.glb')
-  .then((gltf) => {
-    view.add(gltf.scene);
-    view.setComplete();
-  })
-  .catch(fail);
+loadOneGlb(new GLTFLoader().setMeshoptDecoder(MeshoptDecoder));
