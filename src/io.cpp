@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -188,30 +189,42 @@ class MappedFile {
   size_t size_ = 0;
 };
 
-// Reads one file into `scene` (appending), naming its parts from `name`.
-Status read_one_file(const std::string& path, const std::string& name, const ReadOptions& options,
-                     Scene* scene) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) {
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+
+// Opens a regular file of at most `max_bytes` for reading and gives its size: the checks every
+// whole-file read makes before it allocates.
+Status open_regular_file(const std::string& path, uint64_t max_bytes, FilePtr* file,
+                         uint64_t* size) {
+  file->reset(std::fopen(path.c_str(), "rb"));
+  if (*file == nullptr) {
     return error(ErrorCode::kIoError, path, std::string("cannot open: ") + std::strerror(errno));
   }
-  struct Closer {
-    std::FILE* f;
-    ~Closer() { std::fclose(f); }
-  } closer{file};
   struct stat st {};
-  if (fstat(fileno(file), &st) != 0) {
+  if (fstat(fileno(file->get()), &st) != 0) {
     return error(ErrorCode::kIoError, path, std::string("cannot stat: ") + std::strerror(errno));
   }
   if (S_ISDIR(st.st_mode)) return error(ErrorCode::kIoError, path, "is a folder, not a file");
   if (!S_ISREG(st.st_mode)) return error(ErrorCode::kIoError, path, "is not a regular file");
-  uint64_t size = static_cast<uint64_t>(st.st_size);
-  if (size == 0) return error(ErrorCode::kInvalidData, path, "file is empty", "byte 0");
-  if (size > options.max_file_bytes) {
+  *size = static_cast<uint64_t>(st.st_size);
+  if (*size > max_bytes) {
     return error(ErrorCode::kInvalidArgument, path,
-                 "file is " + std::to_string(size) + " bytes, over the limit of " +
-                     std::to_string(options.max_file_bytes));
+                 "file is " + std::to_string(*size) + " bytes, over the limit of " +
+                     std::to_string(max_bytes));
   }
+  return {};
+}
+
+// Reads one file into `scene` (appending), naming its parts from `name`.
+Status read_one_file(const std::string& path, const std::string& name, const ReadOptions& options,
+                     Scene* scene) {
+  FilePtr owned;
+  uint64_t size = 0;
+  OSTEON_RETURN_IF_ERROR(open_regular_file(path, options.max_file_bytes, &owned, &size));
+  std::FILE* file = owned.get();
+  if (size == 0) return error(ErrorCode::kInvalidData, path, "file is empty", "byte 0");
 
   Scene file_scene;
   Format format = format_from_extension(path);
@@ -232,6 +245,17 @@ Status read_one_file(const std::string& path, const std::string& name, const Rea
 }
 
 }  // namespace
+
+Result<std::vector<uint8_t>> read_file(const std::string& path, uint64_t max_bytes) {
+  FilePtr file;
+  uint64_t size = 0;
+  OSTEON_RETURN_IF_ERROR(open_regular_file(path, max_bytes, &file, &size));
+  std::vector<uint8_t> bytes(static_cast<size_t>(size));
+  if (std::fread(bytes.data(), 1, bytes.size(), file.get()) != bytes.size()) {
+    return error(ErrorCode::kIoError, path, "cannot read");
+  }
+  return bytes;
+}
 
 Result<Scene> read_memory(const uint8_t* data, size_t size, const std::string& source,
                           Format format, const ReadOptions& options) {

@@ -13,7 +13,6 @@
 #include <limits>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -26,6 +25,7 @@
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
 
+#include "geometry.hpp"
 #include "osteon/codec.hpp"
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
@@ -107,11 +107,8 @@ std::vector<std::string> csv_fields(const std::string& line) {
 /// a JSON object {stem: "display name"} or {stem: {display_name|label, group}}, or a CSV of
 /// stem,display_name[,group] lines (a first line starting with "file" or "stem" is a header).
 Result<std::map<std::string, DisplayName>> read_names(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return error(ErrorCode::kIoError, path, "cannot open the names file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_file(path));
+  const std::string text(bytes.begin(), bytes.end());
   std::map<std::string, DisplayName> names;
   size_t first = text.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && (text[first] == '[' || text[first] == '{')) {
@@ -292,12 +289,7 @@ Result<std::vector<std::pair<std::string, std::vector<uint8_t>>>> read_viewer(
                    "a viewer file may not be named manifest.json or live under c/ (the "
                    "package's own files)");
     }
-    std::ifstream in(it->path(), std::ios::binary);
-    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
-                               std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof()) {
-      return error(ErrorCode::kIoError, it->path().string(), "cannot read the viewer file");
-    }
+    OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_file(it->path().string()));
     files.emplace_back(relative, std::move(bytes));
   }
   if (ec) return error(ErrorCode::kIoError, root, "cannot list the viewer folder: " + ec.message());
@@ -322,6 +314,18 @@ const char* stage_name(PackStage stage) {
     case PackStage::kSegment: return "segment";
     case PackStage::kEncode: return "encode";
     case PackStage::kWrite: return "write";
+  }
+  return "?";
+}
+
+const char* stage_unit(PackStage stage) {
+  switch (stage) {
+    case PackStage::kRead: return "inputs";
+    case PackStage::kClean:
+    case PackStage::kRepeats:
+    case PackStage::kSegment: return "parts";
+    case PackStage::kEncode: return "components";
+    case PackStage::kWrite: return "files";
   }
   return "?";
 }
@@ -478,23 +482,24 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
       jobs.emplace_back(p, k);
     }
   }
+  // Each part's grid, chosen once as the codec would for the whole part (--bits over its largest
+  // side, or 2 * --precision), then shared by its pieces.
+  std::vector<QuantizationGrid> grid_of(parts.size());
+  for (size_t p : prototypes) {
+    EncodeOptions part_options;
+    part_options.bits = options.bits;
+    part_options.precision = options.precision;
+    Result<QuantizationGrid> grid = detail::choose_grid(parts[p].positions, part_options);
+    if (!grid.ok()) return error(grid.status().code(), parts[p].source, grid.status().message());
+    grid_of[p] = grid.value();
+  }
   std::vector<Status> encode_status(jobs.size());
   progress(PackStage::kEncode, 0, jobs.size());
   arena.execute([&] {
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
-      const Mesh& part = parts[jobs[j].first];
       const Mesh& piece = pieces_of[jobs[j].first][jobs[j].second];
-      const Aabb part_box = bounding_box(part);
-      const double side =
-          std::max({part_box.max.x - part_box.min.x, part_box.max.y - part_box.min.y,
-                    part_box.max.z - part_box.min.z});
       EncodeOptions encode_options;
-      encode_options.bits = options.bits;
-      encode_options.precision = options.precision;
-      encode_options.grid.origin = part_box.min;
-      encode_options.grid.step = options.precision > 0
-                                     ? 2 * options.precision
-                                     : std::max(side, 1e-6) / ((1 << options.bits) - 1);
+      encode_options.grid = grid_of[jobs[j].first];
       EncodeReport encoded;
       Result<std::vector<uint8_t>> bytes = encode(piece, encode_options, &encoded);
       if (!bytes.ok()) {

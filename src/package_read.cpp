@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <array>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -40,22 +39,6 @@ Status bad(const std::string& manifest, const std::string& where, const std::str
   return error(ErrorCode::kInvalidData, manifest, where + ": " + what);
 }
 
-Result<std::vector<uint8_t>> read_all(const std::string& path, uint64_t limit) {
-  std::error_code ec;
-  const uint64_t size = fs::file_size(path, ec);
-  if (ec) return error(ErrorCode::kIoError, path, "cannot open: " + ec.message());
-  if (size > limit) {
-    return error(ErrorCode::kInvalidArgument, path,
-                 "larger than the limit of " + std::to_string(limit) + " bytes");
-  }
-  std::ifstream in(path, std::ios::binary);
-  std::vector<uint8_t> bytes(size);
-  if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size))) {
-    return error(ErrorCode::kIoError, path, "cannot read");
-  }
-  return bytes;
-}
-
 }  // namespace
 
 bool is_package(const std::string& dir) {
@@ -65,7 +48,7 @@ bool is_package(const std::string& dir) {
 
 Result<Scene> read_package(const std::string& dir) {
   const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
-  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> text, read_all(manifest_path, kMaxManifestBytes));
+  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> text, read_file(manifest_path, kMaxManifestBytes));
   const json manifest = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (manifest.is_discarded() || !manifest.is_object()) {
     return bad(manifest_path, "manifest", "not a JSON object");
@@ -105,7 +88,7 @@ Result<Scene> read_package(const std::string& dir) {
       return bad(manifest_path, where + ".file", "\"" + file + "\" is not a c/<24 hex>.ostc name");
     }
     const std::string path = (fs::path(dir) / file).string();
-    OSTEON_ASSIGN_OR_RETURN(chunk_bytes[k], read_all(path, kMaxManifestBytes * 4));
+    OSTEON_ASSIGN_OR_RETURN(chunk_bytes[k], read_file(path, kMaxManifestBytes * 4));
     if (chunk_bytes[k].size() != chunk["bytes"].get<uint64_t>()) {
       return error(ErrorCode::kInvalidData, path,
                    "holds " + std::to_string(chunk_bytes[k].size()) + " bytes, the manifest says " +

@@ -3,12 +3,8 @@
 
 #include <algorithm>
 #include <cassert>
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -17,6 +13,7 @@
 
 #include "byte_io.hpp"
 #include "io_internal.hpp"
+#include "osteon/io.hpp"
 #include "segeval_internal.hpp"
 
 // Based on: the evaluation program of the Princeton Segmentation Benchmark (segEval, Chen,
@@ -208,23 +205,7 @@ Result<std::vector<uint32_t>> parse_seg(const uint8_t* data, size_t size, const 
 }
 
 Result<std::vector<uint32_t>> read_seg(const std::string& path, size_t face_count) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    return error(ErrorCode::kIoError, path, "is a folder, not a .seg file");
-  }
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) {
-    return error(ErrorCode::kIoError, path, std::string("cannot open: ") + std::strerror(errno));
-  }
-  std::vector<uint8_t> bytes;
-  uint8_t buffer[1 << 16];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), file)) > 0) {
-    bytes.insert(bytes.end(), buffer, buffer + n);
-  }
-  bool failed = std::ferror(file) != 0;
-  std::fclose(file);
-  if (failed) return error(ErrorCode::kIoError, path, "cannot read");
+  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_file(path));
   return parse_seg(bytes.data(), bytes.size(), path, face_count);
 }
 

@@ -77,6 +77,31 @@ TEST(Io, UnreadableFileIsAnIoError) {
   EXPECT_NE(r.status().message().find("cannot open"), std::string::npos);
 }
 
+// The whole-file read that package, names and .seg readers share.
+TEST(Io, ReadFileChecksBeforeItAllocates) {
+  const std::string dir = test::scratch_dir();
+  test::write_bytes(dir + "/bytes.bin", std::string("abc\0def", 7));
+  Result<std::vector<uint8_t>> bytes = read_file(dir + "/bytes.bin");
+  ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+  EXPECT_EQ(bytes->size(), 7u);
+  EXPECT_EQ((*bytes)[4], 'd');
+  test::write_bytes(dir + "/empty.bin", "");
+  ASSERT_TRUE(read_file(dir + "/empty.bin").ok());
+  EXPECT_TRUE(read_file(dir + "/empty.bin")->empty());
+
+  Result<std::vector<uint8_t>> missing = read_file(dir + "/absent.bin");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().code(), ErrorCode::kIoError);
+  EXPECT_NE(missing.status().message().find("absent.bin: cannot open"), std::string::npos);
+  Result<std::vector<uint8_t>> folder = read_file(dir);
+  ASSERT_FALSE(folder.ok());
+  EXPECT_NE(folder.status().message().find("is a folder"), std::string::npos);
+  Result<std::vector<uint8_t>> big = read_file(dir + "/bytes.bin", 6);
+  ASSERT_FALSE(big.ok());
+  EXPECT_EQ(big.status().code(), ErrorCode::kInvalidArgument);
+  EXPECT_NE(big.status().message().find("over the limit of 6"), std::string::npos);
+}
+
 TEST(Io, FolderGivesOnePartPerFileNamedByRelativePath) {
   std::string dir = test::scratch_dir();
   fs::create_directories(dir + "/Left");

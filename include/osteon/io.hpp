@@ -52,6 +52,12 @@ Result<Scene> read_memory(const uint8_t* data, size_t size, const std::string& s
 /// Mesh contract (index out of range, NaN position, normals count), kIoError when writing fails.
 Status write_mesh(const std::string& path, const Mesh& mesh);
 
+/// Reads a whole file. Errors: kIoError when it is missing, a folder or unreadable (with the
+/// system's reason), kInvalidArgument when it is larger than `max_bytes` (checked before any
+/// allocation).
+Result<std::vector<uint8_t>> read_file(const std::string& path,
+                                       uint64_t max_bytes = uint64_t{4} << 30);
+
 /// Writes bytes to `path` through a temporary file and a rename.
 Status write_file_atomic(const std::string& path, const void* data, size_t size);
 

@@ -23,6 +23,9 @@ enum class PackStage { kRead, kClean, kRepeats, kSegment, kEncode, kWrite };
 
 /// "read", "clean", "repeats", "segment", "encode", "write".
 const char* stage_name(PackStage stage);
+/// What PackOptions::progress counts in `stage`: "inputs", "parts", "parts", "parts",
+/// "components", "files".
+const char* stage_unit(PackStage stage);
 
 struct PackOptions {
   /// The package folder; created when absent. Existing files other than the ones written are

@@ -1,9 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
-#include <iterator>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -85,9 +83,9 @@ int run_encode(const EncodeArgs& args) {
 }
 
 int run_decode(const DecodeArgs& args) {
-  std::ifstream in(args.input, std::ios::binary);
-  if (!in) return fail(args.input + ": cannot open");
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  Result<std::vector<uint8_t>> read = read_file(args.input);
+  if (!read.ok()) return fail(read.status());
+  const std::vector<uint8_t>& bytes = read.value();
   auto start = std::chrono::steady_clock::now();
   Result<Mesh> mesh = decode(bytes.data(), bytes.size(), args.input);
   double ms =

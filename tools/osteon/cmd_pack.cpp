@@ -53,10 +53,7 @@ int run_pack(const PackArgs& args) {
   options.progress = [&](PackStage stage, uint64_t done, uint64_t total) {
     if (bar == nullptr || stage != current) {
       if (bar != nullptr) bar->finish(true);
-      static const char* const kUnits[] = {"inputs", "parts", "parts", "parts", "components",
-                                           "files"};
-      bar = std::make_unique<ProgressBar>(stage_name(stage),
-                                          kUnits[static_cast<int>(stage)], total);
+      bar = std::make_unique<ProgressBar>(stage_name(stage), stage_unit(stage), total);
       current = stage;
     }
     bar->update(done);

@@ -82,7 +82,7 @@ export function transformBox(local, m) {
   return { min, max };
 }
 
-export function unionBox(a, b) {
+function unionBox(a, b) {
   if (!a) return { min: [...b.min], max: [...b.max] };
   return { min: a.min.map((v, i) => Math.min(v, b.min[i])), max: a.max.map((v, i) => Math.max(v, b.max[i])) };
 }

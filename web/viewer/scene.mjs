@@ -50,7 +50,7 @@ export function flipWinding(indices) {
 /// The decoder's smooth normals are used when they match the positions, else recomputed. With
 /// `component` (the manifest's), the bounding box and sphere come from its bounds grown by its
 /// error bound (every decoded vertex lies within it), instead of a pass over the vertices.
-export function meshGeometry(mesh, component) {
+function meshGeometry(mesh, component) {
   const geometry = new BufferGeometry();
   if (component) {
     const grow = Math.max(component.errorBound, 0);
