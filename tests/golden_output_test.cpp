@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: Apache-2.0
+// Byte-identical output across refactorings: packages and .ostm streams of fixed inputs hash to
+// the values recorded when these tests were written. A change to the bytes a user gets (the codec,
+// the package, the manifest) must update these hashes on purpose, and docs/FORMAT.md with them.
+#include <gtest/gtest.h>
+#include <openssl/sha.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fixtures.hpp"
+#include "osteon/codec.hpp"
+#include "osteon/io.hpp"
+#include "osteon/mesh.hpp"
+#include "osteon/pack.hpp"
+#include "osteon/phantom.hpp"
+
+namespace osteon {
+namespace {
+
+namespace fs = std::filesystem;
+using test::read_bytes;
+using test::scratch_dir;
+
+std::string sha256_hex(const void* data, size_t size) {
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(static_cast<const unsigned char*>(data), size, digest);
+  char hex[2 * SHA256_DIGEST_LENGTH + 1];
+  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i) std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
+  return hex;
+}
+
+/// The hash of a folder: SHA-256 of `sha256sum`'s lines for every regular file, sorted by path
+/// (the same as `find . -type f | sort | xargs sha256sum | sha256sum` run inside it).
+std::string tree_hash(const std::string& dir) {
+  std::vector<std::string> paths;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) paths.push_back("./" + fs::relative(entry.path(), dir).string());
+  }
+  std::sort(paths.begin(), paths.end());
+  std::string lines;
+  for (const std::string& path : paths) {
+    const std::vector<uint8_t> bytes = read_bytes(dir + "/" + path.substr(2));
+    lines += sha256_hex(bytes.data(), bytes.size()) + "  " + path + "\n";
+  }
+  return sha256_hex(lines.data(), lines.size());
+}
+
+std::string write_phantom_parts(int detail) {
+  PhantomOptions options;
+  options.detail = detail;
+  const Phantom phantom = make_phantom(options);
+  const std::string dir = scratch_dir() + "/phantom";
+  fs::create_directories(dir);
+  for (const Mesh& part : phantom.scene.parts) {
+    EXPECT_TRUE(write_mesh(dir + "/" + part.name + ".ply", part).ok()) << part.name;
+  }
+  return dir;
+}
+
+std::string packed_hash(const std::vector<std::string>& inputs, PackOptions options) {
+  options.output = scratch_dir() + "/package";
+  options.threads = 2;
+  Result<PackReport> result = pack(inputs, options);
+  EXPECT_TRUE(result.ok()) << result.status().message();
+  return result.ok() ? tree_hash(options.output) : "";
+}
+
+std::string stream_hash(const Mesh& mesh, const EncodeOptions& options) {
+  Result<std::vector<uint8_t>> bytes = encode(mesh, options);
+  EXPECT_TRUE(bytes.ok()) << bytes.status().message();
+  return bytes.ok() ? sha256_hex(bytes.value().data(), bytes.value().size()) : "";
+}
+
+TEST(GoldenOutput, PhantomPackages) {
+  const std::string input = write_phantom_parts(2);
+  PackOptions defaults;
+  EXPECT_EQ(packed_hash({input}, defaults),
+            "5fa0251719080ba8f1def95179ee2be8de5532bba15acfccad01d8976f2ee3e7");
+  PackOptions segmented;
+  segmented.max_triangles = 500;
+  segmented.precision = 0.05;
+  segmented.chunk_bytes = 4096;
+  EXPECT_EQ(packed_hash({input}, segmented),
+            "f68584e1d0646398f844f00eb755244b5b9755923d2821abe12f6db63000b5e9");
+}
+
+TEST(GoldenOutput, PhantomStreams) {
+  PhantomOptions phantom_options;
+  phantom_options.detail = 2;
+  Phantom phantom = make_phantom(phantom_options);
+  const Mesh whole = merge_parts(std::move(phantom.scene));
+  EncodeOptions bits;
+  EXPECT_EQ(stream_hash(whole, bits),
+            "c664e88566e0dcfbeeed800961843c4db0e671281b281e5e26b04cec6a6df9a7");
+  EncodeOptions precise;
+  precise.precision = 0.01;
+  precise.normals = true;
+  EXPECT_EQ(stream_hash(whole, precise),
+            "a4ea4d8e7074c70ba0d186cdf65d80c1626dabc2b6cf2f4ddd7f558fb8d5b951");
+}
+
+TEST(GoldenOutput, BodyParts3DPackage) {
+  OSTEON_REQUIRE_SHARED_DATA(data);
+  const std::string root = data + "/aHer-dev__3DAnatomy";
+  PackOptions options;
+  options.precision = 0.0289;
+  options.names = root + "/meta.json";
+  EXPECT_EQ(packed_hash({root + "/models/bones"}, options),
+            "14ab5478a4c932efff42292c296fee1eb2cafed86b94e7cf1e58c893e9c5b42b");
+}
+
+TEST(GoldenOutput, MyoSimPackageWithMirroredRepeats) {
+  OSTEON_REQUIRE_SHARED_DATA(data);
+  PackOptions options;
+  options.precision = 0.00005;  // metres
+  EXPECT_EQ(packed_hash({data + "/MyoHub__myo_sim/meshes"}, options),
+            "562e11708aca15acfcf68a649ab39d6b161712a483e391841f39c9e86730933d");
+}
+
+TEST(GoldenOutput, RealStreams) {
+  OSTEON_REQUIRE_SHARED_DATA(data);
+  const std::pair<const char*, const char*> inputs[] = {
+      {"ct-like/hip_mcs.ply", "8154b97a46336c5b35c5c1a3ff9f64e1e873a86f0500c7081be3dd7c93e28322"},
+      {"stity__spl-abdominal-atlas/Data", "5a4331bee6aeca327ba599f8fbdd5d2119510ebdd2a451e8980561e42aa5a73f"}};
+  for (const auto& [name, expected] : inputs) {
+    Result<Scene> scene = read_path(data + "/" + name);
+    ASSERT_TRUE(scene.ok()) << scene.status().message();
+    const Mesh mesh = merge_parts(std::move(scene.value()));
+    EXPECT_EQ(stream_hash(mesh, EncodeOptions{}), expected) << name;
+  }
+}
+
+}  // namespace
+}  // namespace osteon
