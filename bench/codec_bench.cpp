@@ -27,7 +27,7 @@
 #include "osteon/diagnose.hpp"
 #include "osteon/io.hpp"
 
-// The mesh codec against its peers (issue 3), in one run: osteon, Draco 1.5.5 at compression
+// The mesh codec against its peers, in one run: osteon, Draco 1.5.5 at compression
 // levels 7 and 10 (in-process, libdraco-dev), meshoptimizer 0.18's vertex and index codecs under
 // gzip (both in codec_peers.cpp, which says exactly how each is called and timed), and the
 // WebAssembly decoders of osteon and Draco (npm draco3d) in one Node process (bench/codec_wasm.mjs,
@@ -328,7 +328,7 @@ void merge_wasm(const WasmRun& run, std::vector<Row>& rows) {
 
 
 
-/// Bytes as KB (1024 bytes, as the issue's Draco figures): one decimal below 100 KB.
+/// Bytes as KB (1024 bytes): one decimal below 100 KB.
 std::string kb(double bytes) {
   double k = bytes / kKiB;
   return k < 100 ? fixed(k, 1) : grouped(uint64_t(std::llround(k)));
@@ -585,7 +585,7 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
   md << summary_row("**all meshes**", totals(all)) << "\n";
 
   // Targets, each computed.
-  md << "### Targets (issue 3, at " << bits << "-bit positions)\n\n";
+  md << "### Targets (at " << bits << "-bit positions)\n\n";
   auto target = [&](const std::string& name, std::optional<bool> met, const std::string& detail) {
     std::string verdict = !met ? "not measured" : *met ? "**met**" : "**not met**";
     std::string text = detail;
@@ -815,7 +815,7 @@ int main(int argc, char** argv) {
   app.add_option("--keep", keep_dir, "write the .ostm and .drc streams here and keep them");
   app.add_option("--json", json_path, "write every measurement as JSON to this file");
   app.add_option("--write", write_path,
-                 "replace the section '## Mesh codec (issue 3)' of this Markdown file");
+                 "replace the section '## Mesh codec' of this Markdown file");
   CLI11_PARSE(app, argc, argv);
   timing.wall = clock == "wall";
 
@@ -968,7 +968,7 @@ int main(int argc, char** argv) {
             "codec_bench\n"
          << command << "\n```\n\n"
          << report.markdown;
-    if (!osteon_bench::write_section(write_path, "## Mesh codec (issue 3)", body.str())) {
+    if (!osteon_bench::write_section(write_path, "## Mesh codec", body.str())) {
       std::fprintf(stderr, "codec_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

@@ -26,6 +26,8 @@ import { createRequire } from 'node:module';
 import { fileURLToPath, pathToFileURL } from 'node:url';
 import path from 'node:path';
 
+import { parseCommandLine } from './lib/args.mjs';
+
 const here = path.dirname(fileURLToPath(import.meta.url));
 const root = path.join(here, '..');
 // Where a built decoder (osteon_decoder.mjs with osteon_decoder.wasm beside it) is looked for:
@@ -34,18 +36,23 @@ const root = path.join(here, '..');
 const kDecoderDirs = [process.env.OSTEON_WASM_DIR, path.join(root, 'build', 'wasm'),
   path.join(root, 'web', 'decoder')].filter(Boolean);
 
-function parseArgs(argv) {
-  const args = { repeat: 5, minMs: 200, decoder: null, files: [] };
-  for (let i = 0; i < argv.length; ++i) {
-    if (argv[i] === '--repeat') args.repeat = Number(argv[++i]);
-    else if (argv[i] === '--decoder') args.decoder = argv[++i];
-    else if (argv[i] === '--min-ms') args.minMs = Number(argv[++i]);
-    else args.files.push(argv[i]);
-  }
-  if (!(args.repeat >= 1) || !(args.minMs >= 0)) {
-    throw new Error(
-      'usage: node codec_wasm.mjs [--repeat N] [--min-ms MS] [--decoder DIR] FILE...');
-  }
+function parseOptions() {
+  const usage = 'node bench/codec_wasm.mjs [--repeat N] [--min-ms MS] [--decoder DIR] FILE...';
+  const { values, positionals } = parseCommandLine({
+    usage,
+    about: 'WebAssembly decode times of .ostm (osteon) and .drc (Draco) files in Node; prints JSON.',
+    positionals: true,
+    options: {
+      repeat: { type: 'string', default: '5', arg: 'N', help: 'decodes per file, at least (default 5)' },
+      'min-ms': { type: 'string', default: '200', arg: 'MS',
+        help: 'milliseconds of decoding per file, at least (default 200)' },
+      decoder: { type: 'string', arg: 'DIR',
+        help: 'the built osteon decoder (default $OSTEON_WASM_DIR, build/wasm, web/decoder)' },
+    },
+  });
+  const args = { repeat: Number(values.repeat), minMs: Number(values['min-ms']),
+    decoder: values.decoder ?? null, files: positionals };
+  if (!(args.repeat >= 1) || !(args.minMs >= 0)) throw new Error(`usage: ${usage}`);
   return args;
 }
 
@@ -130,7 +137,7 @@ function timeDecodes(decode, bytes, repeat, minMs) {
 }
 
 async function main() {
-  const args = parseArgs(process.argv.slice(2));
+  const args = parseOptions();
   const draco = await loadDraco();
   const osteon = await loadOsteon(args.decoder);
   const results = [];

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "bench_markdown.hpp"
-#include "byte_io.hpp"
-#include "entropy.hpp"
+#include "core/byte_io.hpp"
+#include "codec/entropy.hpp"
 
 // Decoding throughput of the symbol coder (src/entropy.cpp) on two synthetic streams shaped like
 // the codec's: Edgebreaker-like CLERS symbols with the previous symbol as context, and

@@ -334,7 +334,7 @@ int main(int argc, char** argv) {
   bool no_meshlab = false;
   app.add_option("--data", data, "folder of real meshes (../shared/data)");
   app.add_option("--write", write_path,
-                 "replace the section '## Hausdorff distance (issue 4)' of this Markdown file");
+                 "replace the section '## Hausdorff distance' of this Markdown file");
   app.add_option("--only", only, "measure only pairs whose label contains this text");
   app.add_option("--keep", keep,
                  "write the processed copies and MeshLab's logs here and keep them");
@@ -471,7 +471,7 @@ int main(int argc, char** argv) {
             std::min(slowest, (d->meshlab.seconds - pair.meshlab_load_seconds) / d->osteon.seconds);
       }
     }
-    verdict << "\nTargets (issue 4): agreement within 2% on max, mean and RMS: largest difference "
+    verdict << "\nTargets: agreement within 2% on max, mean and RMS: largest difference "
             << fixed(100 * worst, 2) << "% (" << (worst <= 0.02 ? "met" : "**not met**")
             << "); at least 5x MeshLab's speed at equal sample count on the 1M-triangle pairs: "
                "slowest "
@@ -521,7 +521,7 @@ int main(int argc, char** argv) {
            "hausdorff_bench\n"
         << command << "\n```\n\n"
         << tables.str() << verdict.str();
-    if (!osteon_bench::write_section(write_path, "## Hausdorff distance (issue 4)", body.str())) {
+    if (!osteon_bench::write_section(write_path, "## Hausdorff distance", body.str())) {
       std::fprintf(stderr, "hausdorff_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

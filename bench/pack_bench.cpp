@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// osteon pack on whole skeletons (issue 7, "Measured"): package size against the input's bytes at
+// osteon pack on whole skeletons: package size against the input's bytes at
 // a 0.05 mm error bound, pack time per stage on every core, peak memory, and the Hausdorff
 // distance of what the package draws (read_package) against the input, part by part.
 //
@@ -32,7 +32,7 @@
 #include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
 #include "osteon/pack.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace fs = std::filesystem;
 using osteon_bench::fixed;
@@ -275,13 +275,13 @@ int main(int argc, char** argv) {
           "own process; peak memory is that process's largest resident set. Hausdorff: "
           "symmetric, each part of the package (read back with read_package, as the viewer "
           "draws it) against the input part of the same name; max over parts, mean weighted by "
-          "samples.\n\nTargets (issue 7): package at most 5% of the input's bytes and pack under "
+          "samples.\n\nTargets: package at most 5% of the input's bytes and pack under "
           "10 s at the vertex bound: "
        << (all_met ? "met on every skeleton." : "**not met on every skeleton** (see the rows).")
        << "\n";
   std::printf("\n%s", body.str().c_str());
   if (!write_path.empty() &&
-      !osteon_bench::write_section(write_path, "## Packing whole skeletons (issue 7)", body.str())) {
+      !osteon_bench::write_section(write_path, "## Packing whole skeletons", body.str())) {
     std::fprintf(stderr, "pack_bench: cannot write %s\n", write_path.c_str());
     return 2;
   }

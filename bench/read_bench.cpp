@@ -367,7 +367,7 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", repeat, "reads per measurement; the best time counts")
       ->check(CLI::Range(1, 100));
   app.add_option("--write", write_path,
-                 "replace the section '## Reading and welding (issue 2)' of this Markdown file");
+                 "replace the section '## Reading and welding' of this Markdown file");
   app.add_option("--only", only, "measure only inputs whose label contains this text");
   CLI11_PARSE(app, argc, argv);
 
@@ -419,7 +419,7 @@ int main(int argc, char** argv) {
          << " reads and of at least 1 s of reading, files in the page cache. Peak RSS is the "
             "child's `ru_maxrss`; the final "
             "mesh is 12 bytes a vertex + 12 bytes a triangle.\n\n"
-         << "Targets (issue 2): at least 5x Assimp's throughput on binary STL and PLY; peak "
+         << "Targets: at least 5x Assimp's throughput on binary STL and PLY; peak "
             "memory under 3x the final indexed mesh.\n\n"
          << "Machine: " << osteon_bench::cpu_model() << ", " << sysconf(_SC_NPROCESSORS_ONLN)
          << " cores. Date: " << date << ". Command (Release build, from the repository root):\n\n"
@@ -428,7 +428,7 @@ int main(int argc, char** argv) {
             "read_bench\n"
          << command << "\n```\n\n"
          << table;
-    if (!osteon_bench::write_section(write_path, "## Reading and welding (issue 2)", body.str())) {
+    if (!osteon_bench::write_section(write_path, "## Reading and welding", body.str())) {
       std::fprintf(stderr, "read_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

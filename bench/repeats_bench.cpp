@@ -24,10 +24,10 @@
 
 #include "bench_markdown.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 #include "osteon/repeats.hpp"
 
-// Repeated components (issue 6) on the real data: every substitution osteon's find_repeats makes
+// Repeated components on the real data: every substitution osteon's find_repeats makes
 // on the MyoSim meshes (the single-part files, then every file split into its connected pieces)
 // and on the BodyParts3D bones (at the default tolerance and at 0.5 mm), listed by name so that a
 // wrong one can be seen; what gltfpack -mi (npm gltfpack, bench/package.json) instances on the
@@ -385,7 +385,7 @@ std::string gltfpack_row(const std::string& label, const std::vector<Mesh>& part
 using Matrix = std::array<double, 16>;
 
 Matrix compose(const Matrix& a, const Matrix& b) {  // a * b
-  return osteon::multiply_matrices(a, b);
+  return osteon::multiply(a, b);
 }
 
 // A uniformly random rotation (from a random unit quaternion).
@@ -885,7 +885,7 @@ int main(int argc, char** argv) {
          << command << "\n```\n\n"
          << tables.str() << "\n"
          << lists.str();
-    if (!osteon_bench::write_section(write_path, "## Repeated components (issue 6)", body.str())) {
+    if (!osteon_bench::write_section(write_path, "## Repeated components", body.str())) {
       std::fprintf(stderr, "repeats_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

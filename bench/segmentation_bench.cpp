@@ -31,10 +31,10 @@
 
 #include "bench_markdown.hpp"
 #include "osteon/io.hpp"
-#include "osteon/segeval.hpp"
+#include "support/segeval.hpp"
 #include "osteon/segment.hpp"
 
-// Segmentation quality on the Princeton Segmentation Benchmark (issue 5), scored the benchmark's
+// Segmentation quality on the Princeton Segmentation Benchmark, scored the benchmark's
 // way (osteon's evaluator, include/osteon/segeval.hpp): every segmentation of a model against
 // each of its human segmentations, averaged over them, then over the models of a category and
 // over all models. Rows:
@@ -340,7 +340,7 @@ std::string markdown(const std::vector<Row>& rows, const std::vector<Model>& mod
   for (const Published& p : kPublished) {
     md << "| " << p.method << " | ~" << fixed(p.one_minus_rand_index, 2) << " |\n";
   }
-  md << "| Human, full benchmark (issue 5) | 0.103 (CD 0.172, HD 0.099, GCE 0.067, LCE 0.044) "
+  md << "| Human, full benchmark | 0.103 (CD 0.172, HD 0.099, GCE 0.067, LCE 0.044) "
         "|\n\n";
 
   md << "### By category\n\n"
@@ -514,7 +514,7 @@ int main(int argc, char** argv) {
   bool no_cgal = false;
   app.add_option("--data", data, "folder of real meshes (../shared/data)");
   app.add_option("--write", write_path,
-                 "replace the section '## Segmentation (issue 5)' of this Markdown file");
+                 "replace the section '## Segmentation' of this Markdown file");
   app.add_option("--json", json_path, "write every model's scores to this JSON file");
   app.add_option("--only", only, "one category (e.g. Chair) or model id (e.g. 101)");
   app.add_flag("--no-cgal", no_cgal, "skip CGAL's SDF segmentation");
@@ -638,7 +638,7 @@ int main(int argc, char** argv) {
             "segmentation_bench\n"
          << command << "\n```\n\n"
          << table;
-    if (!write_section(write_path, "## Segmentation (issue 5)", body.str())) {
+    if (!write_section(write_path, "## Segmentation", body.str())) {
       std::fprintf(stderr, "segmentation_bench: cannot write %s\n", write_path.c_str());
       return 1;
     }

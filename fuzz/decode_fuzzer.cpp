@@ -7,7 +7,7 @@
 #include <cstring>
 #include <vector>
 
-#include "codec_internal.hpp"
+#include "codec/codec_internal.hpp"
 #include "osteon/codec.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

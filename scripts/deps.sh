@@ -3,7 +3,7 @@
 set -euo pipefail
 packages=(
   cmake ninja-build g++ clang libclang-rt-14-dev pkg-config
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev
   libcli11-dev nlohmann-json3-dev libtinygltf-dev libtbb-dev libeigen3-dev libcpp-httplib-dev libssl-dev
   libassimp-dev
   emscripten

@@ -8,35 +8,7 @@
 #include "osteon/status.hpp"
 
 // What the distance code shares (src/point_triangle.cpp, src/distance_query.cpp,
-// src/hausdorff.cpp): vector arithmetic on Vec3d and the checks every input mesh passes.
-
-// The operators live in namespace osteon, beside Vec3d, so that argument-dependent lookup finds
-// them; this header is internal to src/.
-namespace osteon {
-
-inline Vec3d to_double(const Vec3& v) {
-  return {v.x, v.y, v.z};
-}
-inline Vec3d operator+(const Vec3d& a, const Vec3d& b) {
-  return {a.x + b.x, a.y + b.y, a.z + b.z};
-}
-inline Vec3d operator-(const Vec3d& a, const Vec3d& b) {
-  return {a.x - b.x, a.y - b.y, a.z - b.z};
-}
-inline Vec3d operator*(double s, const Vec3d& v) {
-  return {s * v.x, s * v.y, s * v.z};
-}
-inline double dot(const Vec3d& a, const Vec3d& b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-inline Vec3d cross(const Vec3d& a, const Vec3d& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-inline double squared_length(const Vec3d& v) {
-  return dot(v, v);
-}
-
-}  // namespace osteon
+// src/hausdorff.cpp): the closest-point kernel and the checks every input mesh passes.
 
 namespace osteon::detail {
 

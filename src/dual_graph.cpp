@@ -23,10 +23,6 @@ struct HalfEdge {
   uint32_t corner;  // 3 * triangle + k: the edge from corner k to corner k + 1
 };
 
-double dot(const double* a, const double* b) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 }  // namespace
 
 DualGraph build_dual_graph(const Mesh& mesh, const DualGraphOptions& options) {
@@ -40,13 +36,10 @@ DualGraph build_dual_graph(const Mesh& mesh, const DualGraphOptions& options) {
   for (uint32_t t = 0; t < triangles; ++t) {
     const Vec3 &a = P[I[3 * t]], &b = P[I[3 * t + 1]], &c = P[I[3 * t + 2]];
     g.centroid[t] = {(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3, (a.z + b.z + c.z) / 3};
-    const double u[3] = {double(b.x) - a.x, double(b.y) - a.y, double(b.z) - a.z};
-    const double v[3] = {double(c.x) - a.x, double(c.y) - a.y, double(c.z) - a.z};
-    const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                         u[0] * v[1] - u[1] * v[0]};
-    const double len = std::sqrt(dot(n, n));
+    const Vec3d n = cross(to_double(b) - to_double(a), to_double(c) - to_double(a));
+    const double len = length(n);
     g.area[t] = len / 2;
-    normal[t] = len > 0 ? Vec3{float(n[0] / len), float(n[1] / len), float(n[2] / len)}
+    normal[t] = len > 0 ? Vec3{float(n.x / len), float(n.y / len), float(n.z / len)}
                         : Vec3{0, 0, 0};
   }
   const Aabb box = bounding_box(mesh);
@@ -81,14 +74,14 @@ DualGraph build_dual_graph(const Mesh& mesh, const DualGraphOptions& options) {
         const uint32_t c = half[i].corner;
         const Vec3& p = P[I[c]];
         const Vec3& q = P[I[c % 3 == 2 ? c - 2 : c + 1]];
-        double e[3] = {double(q.x) - p.x, double(q.y) - p.y, double(q.z) - p.z};
-        const double elen = std::sqrt(dot(e, e));
+        const Vec3d e = to_double(q) - to_double(p);
+        const double elen = length(e);
         // Unfold: along-edge coordinate t and distance h from the edge line, per centroid.
         double t[2], h[2];
         const uint32_t tt[2] = {ti, tj};
         for (int k = 0; k < 2; ++k) {
           const Vec3& m = g.centroid[tt[k]];
-          const double w[3] = {double(m.x) - p.x, double(m.y) - p.y, double(m.z) - p.z};
+          const Vec3d w = to_double(m) - to_double(p);
           t[k] = elen > 0 ? dot(w, e) / elen : 0;
           h[k] = std::sqrt(std::max(0.0, dot(w, w) - t[k] * t[k]));
         }

@@ -15,10 +15,9 @@
 #include <system_error>
 #include <vector>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 #include "io_internal.hpp"
 #include "osteon/io.hpp"
-#include "osteon/pack.hpp"
 
 // The dispatcher: which reader a file goes to, how files are brought into memory (mapped, or for
 // binary STL streamed), how parts are named, welded and given a unit, and how folders of bone
@@ -143,7 +142,9 @@ Status finish_file(Format format, const std::string& source, const std::string& 
   return {};
 }
 
-void assign_unit(const ReadOptions& options, Scene* scene) {
+}  // namespace
+
+void detail::assign_unit(const ReadOptions& options, Scene* scene) {
   Unit unit = options.unit;
   UnitSource unit_source = UnitSource::kUser;
   if (unit == Unit::kUnknown) {
@@ -155,6 +156,8 @@ void assign_unit(const ReadOptions& options, Scene* scene) {
     part.unit_source = unit_source;
   }
 }
+
+namespace {
 
 Format pick_format(const uint8_t* data, size_t size, const std::string& source, Format format) {
   if (format == Format::kUnknown) format = format_from_extension(source);
@@ -264,11 +267,11 @@ Result<Scene> read_memory(const uint8_t* data, size_t size, const std::string& s
   Scene scene;
   OSTEON_RETURN_IF_ERROR(dispatch(format, data, size, source, {}, options, &scene));
   OSTEON_RETURN_IF_ERROR(finish_file(format, source, stem_of(source), options, &scene));
-  assign_unit(options, &scene);
+  detail::assign_unit(options, &scene);
   return scene;
 }
 
-Result<Scene> read_path(const std::string& path, const ReadOptions& options) {
+Result<Scene> read_meshes(const std::string& path, const ReadOptions& options) {
   std::error_code ec;
   fs::file_status status = fs::status(path, ec);
   if (ec || !fs::exists(status)) {
@@ -277,18 +280,9 @@ Result<Scene> read_path(const std::string& path, const ReadOptions& options) {
   Scene scene;
   if (!fs::is_directory(status)) {
     OSTEON_RETURN_IF_ERROR(read_one_file(path, stem_of(path), options, &scene));
-    assign_unit(options, &scene);
+    detail::assign_unit(options, &scene);
     return scene;
   }
-  // A package written by osteon pack: its parts as the viewer draws them.
-  if (is_package(path)) {
-    OSTEON_ASSIGN_OR_RETURN(scene, read_package(path));
-    // The manifest's unit stands unless the caller gives one or it is unknown.
-    const bool unit_known = !scene.parts.empty() && scene.parts.front().unit != Unit::kUnknown;
-    if (options.unit != Unit::kUnknown || !unit_known) assign_unit(options, &scene);
-    return scene;
-  }
-
   // A folder: every mesh file below it, in sorted order, named by its relative path.
   std::vector<fs::path> files;
   fs::recursive_directory_iterator it(path, fs::directory_options::skip_permission_denied, ec);
@@ -319,7 +313,7 @@ Result<Scene> read_path(const std::string& path, const ReadOptions& options) {
     std::string name = (relative.parent_path() / relative.stem()).generic_string();
     OSTEON_RETURN_IF_ERROR(read_one_file(file.string(), name, options, &scene));
   }
-  assign_unit(options, &scene);
+  detail::assign_unit(options, &scene);
   return scene;
 }
 

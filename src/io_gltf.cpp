@@ -50,7 +50,7 @@
 
 #include <tiny_gltf.h>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 #include "io_internal.hpp"
 
 namespace osteon::detail {
@@ -260,22 +260,6 @@ bool extension_ok(const std::string& name) {
 
 // ---- matrices (column-major, as glTF stores them) ------------------------------------------
 
-using Mat4 = std::array<double, 16>;
-
-constexpr Mat4 kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-
-Mat4 multiply(const Mat4& a, const Mat4& b) {
-  Mat4 m{};
-  for (int col = 0; col < 4; ++col) {
-    for (int row = 0; row < 4; ++row) {
-      double s = 0;
-      for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[col * 4 + k];
-      m[col * 4 + row] = s;
-    }
-  }
-  return m;
-}
-
 /// The node's local matrix: `matrix`, or T * R * S.
 Status local_matrix(const tinygltf::Node& node, int index, const std::string& source, Mat4* out) {
   std::string where = "node " + std::to_string(index);
@@ -285,7 +269,7 @@ Status local_matrix(const tinygltf::Node& node, int index, const std::string& so
         std::string(what) + " has " + std::to_string(got) + " numbers, not " + std::to_string(want),
         where);
   };
-  Mat4 m = kIdentity;
+  Mat4 m = kIdentityMatrix;
   if (!node.matrix.empty()) {
     if (node.matrix.size() != 16) return bad_size("matrix", node.matrix.size(), 16);
     std::copy(node.matrix.begin(), node.matrix.end(), m.begin());
@@ -340,10 +324,6 @@ Status local_matrix(const tinygltf::Node& node, int index, const std::string& so
   return {};
 }
 
-double determinant3(const Mat4& m) {
-  return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
-         m[8] * (m[1] * m[6] - m[5] * m[2]);
-}
 
 // ---- accessors ---------------------------------------------------------------------------------
 
@@ -628,9 +608,7 @@ Status add_vertices(const Reader& reader, int position_accessor, int normal_acce
     if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
       return non_finite_error(source, i, "accessor " + std::to_string(position_accessor));
     }
-    Vec3 v{static_cast<float>(world[0] * p[0] + world[4] * p[1] + world[8] * p[2] + world[12]),
-           static_cast<float>(world[1] * p[0] + world[5] * p[1] + world[9] * p[2] + world[13]),
-           static_cast<float>(world[2] * p[0] + world[6] * p[1] + world[10] * p[2] + world[14])};
+    const Vec3 v = to_float(transform_point(world, Vec3d{p[0], p[1], p[2]}));
     if (!is_finite(v)) {  // finite in the file, but not after the node transform
       return non_finite_error(source, i, "accessor " + std::to_string(position_accessor));
     }
@@ -864,7 +842,9 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
     Mat4 parent_world;
   };
   std::vector<Item> stack;
-  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, -1, kIdentity});
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
+    stack.push_back({*it, -1, kIdentityMatrix});
+  }
   std::vector<char> visited(node_count, 0);
   while (!stack.empty()) {
     Item item = stack.back();
@@ -884,7 +864,7 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
     visited[static_cast<size_t>(item.node)] = 1;
     const tinygltf::Node& node = model.nodes[static_cast<size_t>(item.node)];
     std::string where = "node " + std::to_string(item.node);
-    Mat4 local = kIdentity;
+    Mat4 local = kIdentityMatrix;
     OSTEON_RETURN_IF_ERROR(local_matrix(node, item.node, source, &local));
     Mat4 world = multiply(item.parent_world, local);
     for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) {

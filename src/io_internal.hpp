@@ -31,6 +31,9 @@
 
 namespace osteon::detail {
 
+/// Sets every part's unit: options.unit when given (UnitSource::kUser), else guess_unit's.
+void assign_unit(const ReadOptions& options, Scene* scene);
+
 Status parse_stl(const uint8_t* data, size_t size, const std::string& source,
                  const ReadOptions& options, Scene* scene);
 /// Binary STL streamed from an open file in ~1 MiB chunks and welded as it arrives, so memory

@@ -6,7 +6,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 #include "io_internal.hpp"
 
 // Based on: Wavefront "Object Files (.obj)", Appendix B1 of the Advanced Visualizer manual:

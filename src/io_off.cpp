@@ -5,7 +5,7 @@
 #include <string_view>
 #include <vector>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 #include "io_internal.hpp"
 
 // Based on: the OFF format as Geomview documents it ("OFF Files", Geomview manual, section 4.2.1):

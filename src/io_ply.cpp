@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 #include "io_internal.hpp"
 
 // Based on: Greg Turk, "The PLY Polygon File Format" (1994), with the extensions readers agree on

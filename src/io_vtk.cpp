@@ -36,7 +36,7 @@
 #include <string_view>
 #include <vector>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 #include "io_internal.hpp"
 
 namespace osteon::detail {

@@ -10,7 +10,6 @@
 
 #include <Eigen/Dense>
 
-#include "distance_internal.hpp"
 
 // Based on: Zhou, Jia & Su (2018), eq. (5)-(9) (translation, scale and symmetry alignment);
 // D. Vranic, D. Saupe, "3D shape descriptor based on 3D Fourier transform" / "continuous PCA"

@@ -13,7 +13,6 @@
 #include <utility>
 #include <vector>
 
-#include "distance_internal.hpp"
 #include "osteon/hausdorff.hpp"
 #include "repeats_internal.hpp"
 
@@ -741,47 +740,6 @@ double repeat_tolerance(const Mesh& member, const RepeatOptions& options) {
     step = side / double((uint64_t{1} << options.bits) - 1);
   }
   return 0.5 * step * std::sqrt(3.0);
-}
-
-std::array<double, 16> multiply_matrices(const std::array<double, 16>& a,
-                                         const std::array<double, 16>& b) {
-  std::array<double, 16> out{};
-  for (size_t c = 0; c < 4; ++c) {
-    for (size_t r = 0; r < 4; ++r) {
-      double sum = 0;
-      for (size_t k = 0; k < 4; ++k) sum += a[4 * k + r] * b[4 * c + k];
-      out[4 * c + r] = sum;
-    }
-  }
-  return out;
-}
-
-Mesh transform_mesh(const Mesh& mesh, const std::array<double, 16>& matrix) {
-  const auto& m = matrix;
-  Mesh out = mesh;
-  for (Vec3& p : out.positions) {
-    const double x = p.x, y = p.y, z = p.z;
-    p = {float(m[0] * x + m[4] * y + m[8] * z + m[12]),
-         float(m[1] * x + m[5] * y + m[9] * z + m[13]),
-         float(m[2] * x + m[6] * y + m[10] * z + m[14])};
-  }
-  // Columns of the linear part; normals go by its inverse transpose, which is the cofactor
-  // matrix [c1 x c2, c2 x c0, c0 x c1] (as columns) over the determinant.
-  const Vec3d c0{m[0], m[1], m[2]}, c1{m[4], m[5], m[6]}, c2{m[8], m[9], m[10]};
-  const double det = dot(c0, cross(c1, c2));
-  const Vec3d k0 = cross(c1, c2), k1 = cross(c2, c0), k2 = cross(c0, c1);
-  for (Vec3& n : out.normals) {
-    Vec3d q = double(n.x) * k0 + double(n.y) * k1 + double(n.z) * k2;
-    const double length = std::sqrt(squared_length(q));
-    if (length > 0) q = ((det < 0 ? -1.0 : 1.0) / length) * q;
-    n = {float(q.x), float(q.y), float(q.z)};
-  }
-  if (det < 0) {
-    for (size_t f = 0; f + 2 < out.indices.size(); f += 3) {
-      std::swap(out.indices[f + 1], out.indices[f + 2]);
-    }
-  }
-  return out;
 }
 
 }  // namespace osteon

@@ -10,7 +10,7 @@
 
 #include "fixtures.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "corner_table.hpp"
+#include "codec/corner_table.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 
 #include "fixtures.hpp"
 #include "osteon/mesh.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 // The corner table and the cut into a closed manifold: pairing only two-sided edges, one new
 // vertex per extra fan, one dummy vertex per boundary loop, and nothing else changed.

@@ -17,7 +17,7 @@
 #include "fixtures.hpp"
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {

@@ -13,12 +13,12 @@
 #include <string>
 #include <vector>
 
-#include "byte_io.hpp"
-#include "connectivity.hpp"
+#include "core/byte_io.hpp"
+#include "codec/connectivity.hpp"
 #include "fixtures.hpp"
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 // Edgebreaker connectivity coding: exact round trips on every mesh category, on generated
 // torture meshes (Möbius strip, high genus, duplicate faces, random soups) and on every real mesh

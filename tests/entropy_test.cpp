@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "entropy.hpp"
+#include "codec/entropy.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "byte_io.hpp"
+#include "core/byte_io.hpp"
 
 namespace osteon::detail {
 namespace {

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace fs = std::filesystem;
 

@@ -19,7 +19,7 @@
 #include "fixtures.hpp"
 #include "osteon/codec.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {

@@ -7,7 +7,7 @@
 #include "fixtures.hpp"
 #include "io_internal.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {

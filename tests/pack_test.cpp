@@ -21,7 +21,7 @@
 #include "osteon/codec.hpp"
 #include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 #include "osteon/repeats.hpp"
 
 namespace osteon {

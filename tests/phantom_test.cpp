@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 #include <gtest/gtest.h>
 

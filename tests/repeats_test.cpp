@@ -21,7 +21,7 @@
 #include "fixtures.hpp"
 #include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 #include "repeats_internal.hpp"
 
 // Repeated components: pose normalisation, voxel similarity, ICP, verification and grouping, on
@@ -37,7 +37,7 @@ using Matrix = std::array<double, 16>;  // column-major, as RepeatMember::matrix
 constexpr Matrix kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
 
 Matrix compose(const Matrix& a, const Matrix& b) {  // a * b
-  return osteon::multiply_matrices(a, b);
+  return osteon::multiply(a, b);
 }
 
 Matrix translation(double x, double y, double z) {

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "osteon/segeval.hpp"
+#include "support/segeval.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

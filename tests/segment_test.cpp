@@ -13,7 +13,7 @@
 #include "dual_graph.hpp"
 #include "fixtures.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 // Segmentation: connected parts, Dijkstra region diffusion on the GD-weighted dual graph, merging
 // and the streaming size limit.

@@ -3,7 +3,7 @@
 
 #include "fixtures.hpp"
 #include "osteon/mesh.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {

@@ -30,7 +30,9 @@
 import { existsSync, readFileSync } from 'node:fs';
 import { createRequire } from 'node:module';
 import path from 'node:path';
-import { root, parseArgs, median } from './lib.mjs';
+import { root } from './lib.mjs';
+import { parseCommandLine } from '../lib/args.mjs';
+import { spread } from '../lib/stats.mjs';
 
 const kOrigin = 'http://osteon.bench';
 const kChromiumArgs = [
@@ -124,14 +126,24 @@ function findWasmDir(dir) {
 }
 
 async function main() {
-  const args = parseArgs(process.argv.slice(2),
-    { options: ['runs', 'min-ms', 'wasm-dir', 'chromium'] });
-  const runs = Number(args.runs ?? 9);
-  const minMs = Number(args['min-ms'] ?? 1500);
-  if (!(runs >= 1) || !(minMs >= 0) || args._.length === 0) {
-    throw new Error('usage: node browser_decode.mjs [--runs N] [--min-ms MS] [--wasm-dir DIR] ' +
-      '[--chromium PATH] FILE.ostm|FILE.drc ...');
-  }
+  const usage = 'node bench/paper/browser_decode.mjs [options] FILE.ostm|FILE.drc ...';
+  const { values: args, positionals } = parseCommandLine({
+    usage,
+    about: 'Times osteon\'s (.ostm) and Draco\'s (.drc) WebAssembly decoders in headless Chromium;\n' +
+      'prints JSON.',
+    positionals: true,
+    options: {
+      runs: { type: 'string', arg: 'N', default: '9', help: 'decodes after the first, at least (default 9)' },
+      'min-ms': { type: 'string', arg: 'MS', default: '1500',
+        help: 'milliseconds of decoding after the first, at least (default 1500)' },
+      'wasm-dir': { type: 'string', arg: 'DIR', help: 'the built decoder (default $OSTEON_WASM_DIR, else build/wasm)' },
+      chromium: { type: 'string', arg: 'PATH',
+        help: 'Chromium (default $OSTEON_CHROMIUM, else /usr/bin/chromium; never downloaded)' },
+    },
+  });
+  const runs = Number(args.runs);
+  const minMs = Number(args['min-ms']);
+  if (!(runs >= 1) || !(minMs >= 0) || positionals.length === 0) throw new Error(`usage: ${usage}`);
   const chromium = args.chromium ?? process.env.OSTEON_CHROMIUM ?? '/usr/bin/chromium';
   if (!existsSync(chromium)) throw new Error(`no Chromium at ${chromium} (apt-get install chromium)`);
   const wasmDir = findWasmDir(args['wasm-dir']);
@@ -146,7 +158,7 @@ async function main() {
   }
   const dracoVersion = require('draco3d/package.json').version;
   const playwrightVersion = require('playwright-core/package.json').version;
-  const files = args._.map((f) => path.resolve(f));
+  const files = positionals.map((f) => path.resolve(f));
   for (const f of files) {
     if (!f.endsWith('.ostm') && !f.endsWith('.drc')) throw new Error(`${f}: want .ostm or .drc`);
     if (!existsSync(f)) throw new Error(`${f}: no such file`);
@@ -185,10 +197,11 @@ async function main() {
         const r = await page.evaluate((a) => window.timeDecodes(a),
           { url: `/f/${i}`, codec, runs, minMs });
         const [first, ...rest] = r.times;
+        const s = spread(rest);
         results.push({
           file: files[i], codec, bytes: r.bytes, triangles: r.triangles, vertices: r.vertices,
-          first_ms: first, median_ms: median(rest), min_ms: Math.min(...rest),
-          max_ms: Math.max(...rest), runs: rest.length, times_ms: r.times,
+          first_ms: first, median_ms: s.median, min_ms: s.min, max_ms: s.max, runs: s.n,
+          times_ms: r.times,
         });
       } catch (e) {
         results.push({ file: files[i], codec, error: `${e.message.split('\n')[0]}${

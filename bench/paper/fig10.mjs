@@ -16,9 +16,9 @@
 import { existsSync, mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
-import {
-  dataDir, here, log, machine, mean, parseArgs, readJson, resultsDir, root, run, writeJson,
-} from './lib.mjs';
+import { dataDir, here, log, machine, readJson, resultsDir, root, run, writeJson } from './lib.mjs';
+import { parseCommandLine } from '../lib/args.mjs';
+import { mean, sum } from '../lib/stats.mjs';
 
 const kMeasures = ['cd', 'hd', 'one_minus_ri', 'gce', 'lce'];
 
@@ -35,12 +35,20 @@ function summarize(rows) {
   const targets = ok.map((r) => r.target).filter((v) => v != null);
   if (targets.length) out.target = mean(targets);
   const seconds = ok.map((r) => r.seconds).filter((v) => v != null);
-  if (seconds.length) out.seconds = seconds.reduce((a, b) => a + b, 0);
+  if (seconds.length) out.seconds = sum(seconds);
   return out;
 }
 
 function main() {
-  const args = parseArgs(process.argv.slice(2), { flags: ['quick'], options: ['bench'] });
+  const { values: args } = parseCommandLine({
+    usage: 'node bench/paper/fig10.mjs [--quick] [--bench PATH]',
+    about: 'Fig. 10: the Princeton benchmark\'s five measures, osteon against published methods;\n' +
+      'writes docs/paper/results/fig10.json.',
+    options: {
+      quick: { type: 'boolean', help: 'no CGAL peer (segmentation_bench --no-cgal)' },
+      bench: { type: 'string', arg: 'PATH', help: 'segmentation_bench (default build-bench/segmentation_bench)' },
+    },
+  });
   const bench = args.bench ?? path.join(root, 'build-bench', 'segmentation_bench');
   if (!existsSync(bench)) {
     throw new Error(`${bench} not built (cmake --build build-bench --target segmentation_bench)`);

@@ -25,8 +25,9 @@ import { tmpdir } from 'node:os';
 import path from 'node:path';
 import { gzipSync } from 'node:zlib';
 import {
-  cliPath, dataDir, log, machine, parseArgs, phantomDir, resultsDir, runJson, writeJson,
+  cliPath, dataDir, log, machine, phantomDir, resultsDir, runJson, writeJson,
 } from './lib.mjs';
+import { parseCommandLine } from '../lib/args.mjs';
 
 /// The stored components of a package folder: distinct files, bytes, vertices and triangles.
 function readPackage(dir) {
@@ -119,7 +120,15 @@ function checkTruth(truthFile, manifest) {
 }
 
 function main() {
-  const args = parseArgs(process.argv.slice(2), { flags: ['quick'], options: ['work'] });
+  const { values: args } = parseCommandLine({
+    usage: 'node bench/paper/fig11.mjs [--quick] [--work DIR]',
+    about: 'Fig. 11: osteon pack with and without repeated components; writes\n' +
+      'docs/paper/results/fig11.json.',
+    options: {
+      quick: { type: 'boolean', help: 'the same runs, marked quick in the results (run.sh passes it to every item)' },
+      work: { type: 'string', arg: 'DIR', help: 'keep the work files in DIR (default: a temporary folder, removed)' },
+    },
+  });
   const cli = cliPath();
   const data = dataDir();
   const work = args.work ?? mkdtempSync(path.join(tmpdir(), 'osteon-fig11-'));

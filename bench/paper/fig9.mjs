@@ -23,9 +23,10 @@ import { existsSync, mkdirSync, mkdtempSync, readdirSync, rmSync } from 'node:fs
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 import {
-  cliPath, dataDir, fileSize, log, machine, parseArgs, phantomDir, referencePly, resultsDir, run,
-  runJson, writeJson,
+  cliPath, dataDir, fileSize, log, machine, phantomDir, referencePly, resultsDir, run, runJson,
+  writeJson,
 } from './lib.mjs';
+import { parseCommandLine } from '../lib/args.mjs';
 
 const kDenseTriangles = 200000;
 
@@ -156,7 +157,15 @@ function measureMesh(cli, mesh, work, bitsList) {
 }
 
 function main() {
-  const args = parseArgs(process.argv.slice(2), { flags: ['quick'], options: ['work'] });
+  const { values: args } = parseCommandLine({
+    usage: 'node bench/paper/fig9.mjs [--quick] [--work DIR]',
+    about: 'Fig. 9: osteon at 8..16 position bits against Draco at equal size, Hausdorff errors;\n' +
+      'writes docs/paper/results/fig9.json.',
+    options: {
+      quick: { type: 'boolean', help: 'two meshes only, bits 8, 10, 12, 14, 16' },
+      work: { type: 'string', arg: 'DIR', help: 'keep the work files in DIR (default: a temporary folder, removed)' },
+    },
+  });
   const cli = cliPath();
   const data = dataDir();
   const work = args.work ?? mkdtempSync(path.join(tmpdir(), 'osteon-fig9-'));

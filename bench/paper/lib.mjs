@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Shared helpers of the bench/paper scripts: where things are (repository, data, CLI, results),
-// running a command and reading its JSON, statistics and the number formats the page uses.
+// running a command and reading its JSON, and the number formats the page uses. Statistics,
+// options and plots come from bench/lib/, which bench/web uses too.
 //
 // Every script of bench/paper imports this file; none of them needs an npm package except
 // browser_decode.mjs (playwright-core, pinned in bench/package.json).
@@ -37,23 +38,6 @@ export function cliPath() {
 
 /// Where the measured results go (JSON, one file per item; the page is rendered from them).
 export const resultsDir = path.join(root, 'docs', 'paper', 'results');
-
-/// Parses `--name value` and `--flag` arguments into an object (numbers stay strings).
-export function parseArgs(argv, { flags = [], options = [] } = {}) {
-  const out = { _: [] };
-  for (let i = 0; i < argv.length; ++i) {
-    const a = argv[i];
-    if (a.startsWith('--')) {
-      const name = a.slice(2);
-      if (flags.includes(name)) out[name] = true;
-      else if (options.includes(name)) {
-        if (i + 1 >= argv.length) throw new Error(`${a} needs a value`);
-        out[name] = argv[++i];
-      } else throw new Error(`unknown option ${a}`);
-    } else out._.push(a);
-  }
-  return out;
-}
 
 /// Runs a program, returns its stdout as text. On failure the error names the command and carries
 /// the program's own stderr (osteon prints "osteon: error: FILE: what").
@@ -98,16 +82,6 @@ export function writeText(file, text) {
   writeFileSync(tmp, text);
   renameSync(tmp, file);
 }
-
-export function median(values) {
-  const v = [...values].sort((a, b) => a - b);
-  if (v.length === 0) return NaN;
-  const m = v.length >> 1;
-  return v.length % 2 ? v[m] : (v[m - 1] + v[m]) / 2;
-}
-
-export const sum = (values) => values.reduce((a, b) => a + b, 0);
-export const mean = (values) => (values.length ? sum(values) / values.length : NaN);
 
 /// The machine, for the page's "measured on" lines.
 export function machine() {

@@ -3,7 +3,7 @@
 // environment"): original size, compressed size, rate and decompression time in the browser,
 // redone on the densest bones in ../shared/data.
 //
-//   node bench/paper/table1.mjs [--quick] [--work DIR]
+//   node bench/paper/table1.mjs [--quick] [--work DIR] [--runs N]
 //
 // Meshes: both ct-like surfaces (hip_mcs.ply, skull_mc.ply), the Visible Human bone STL with the
 // most triangles and the SPL bone VTK with the most triangles (intervertebral discs are not
@@ -17,9 +17,10 @@ import { mkdtempSync, mkdirSync, rmSync, readdirSync, existsSync } from 'node:fs
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 import {
-  cliPath, dataDir, fileSize, log, machine, parseArgs, phantomDir, referencePly, resultsDir,
+  cliPath, dataDir, fileSize, log, machine, phantomDir, referencePly, resultsDir,
   root, run, runJson, writeJson, here,
 } from './lib.mjs';
+import { parseCommandLine } from '../lib/args.mjs';
 
 /// Triangle and vertex counts of each file, by osteon's reader (one part per file).
 function census(cli, files) {
@@ -73,7 +74,16 @@ function pickMeshes(cli, data, work) {
 }
 
 async function main() {
-  const args = parseArgs(process.argv.slice(2), { flags: ['quick'], options: ['work', 'runs'] });
+  const { values: args } = parseCommandLine({
+    usage: 'node bench/paper/table1.mjs [--quick] [--work DIR] [--runs N]',
+    about: 'Table 1: size, rate and browser decode time of the densest bones; writes\n' +
+      'docs/paper/results/table1.json.',
+    options: {
+      quick: { type: 'boolean', help: 'fewer browser decodes (--runs 5)' },
+      work: { type: 'string', arg: 'DIR', help: 'keep the work files in DIR (default: a temporary folder, removed)' },
+      runs: { type: 'string', arg: 'N', help: 'browser decodes after the first, at least (default 15)' },
+    },
+  });
   const cli = cliPath();
   const data = dataDir();
   const work = args.work ?? mkdtempSync(path.join(tmpdir(), 'osteon-table1-'));

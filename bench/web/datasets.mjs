@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // The skeletons bench/web loads. Each is a folder of part files in one format:
 //   bodyparts3d  BodyParts3D (aHer-dev__3DAnatomy/models/bones): 235 GLB bones in millimetres,
-//                named by meta.json; the issue's main skeleton
+//                named by meta.json; the main skeleton (the targets are set on it)
 //   myosim       MyoSim (MyoHub__myo_sim/meshes): 200 binary STL files in metres
 //   phantom      `osteon phantom`: the generated skeleton (STL, mm), used when ../shared/data is
 //                absent so the benchmark still runs (and says so)

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // bench/web: how fast a skeleton appears in a real browser, osteon against what a user would pick
-// instead (issue 8, item 1; the paper's Fig. 12). Headless Chromium (Debian's, driven by
+// instead (the paper's Fig. 12). Headless Chromium (Debian's, driven by
 // playwright-core, WebGL through SwiftShader) loads the same skeleton from `osteon serve` four
 // ways, with the network throttled through the DevTools protocol and the cache disabled:
 //
@@ -23,8 +23,8 @@ import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { parseArgs } from 'node:util';
 
+import { parseCommandLine } from '../lib/args.mjs';
 import { findDatasets } from './datasets.mjs';
 import { canvasSize, kChromiumArgs, kProfiles, launchBrowser, measureLoad } from './measure.mjs';
 import { kPositionBits, prepareDataset, toolVersions } from './prepare.mjs';
@@ -35,54 +35,32 @@ const repo = path.resolve(here, '..', '..');
 const kAllWays = ['direct', 'draco', 'gltfpack', 'osteon'];
 const kViewport = { width: 1280, height: 800 };
 
-const kHelp = `Usage: node bench/web/load_bench.mjs [options]   (or: bash bench/web/run.sh [options])
-
-  --runs N            loads per way and network profile (default 5; medians reported)
-  --profiles LIST     slow (10 Mbit/s, 40 ms) and/or fast (100 Mbit/s, 10 ms) (default slow,fast)
-  --ways LIST         direct,draco,gltfpack,osteon (default all)
-  --datasets LIST     bodyparts3d,myosim,phantom (default bodyparts3d,myosim; phantom when no data)
-  --data DIR          the shared data folder (default $OSTEON_SHARED_DATA, else ../shared/data)
-  --osteon PATH       the osteon CLI (default $OSTEON_CLI, else build/release/osteon)
-  --viewer DIR        the built viewer (default build/viewer)
-  --chromium PATH     Chromium (default /usr/bin/chromium; never downloaded)
-  --out DIR           prepared files and results (default build/bench-web)
-  --write FILE        the Markdown file whose "${kSectionTitle}" section is replaced
-                      (default docs/BENCHMARKS.md)
-  --svg FILE          the plot (default docs/load_time.svg)
-  --no-write          print only: write neither --write nor --svg
-  --no-hausdorff      skip the drawn-triangles read-back and osteon compare
-  --fresh             redo every preparation step
-  --timeout S         seconds one page load may take (default 60)
-  --json FILE         every run's numbers as JSON (default OUT/results.json)
-  -h, --help          this text`;
-
 function parseOptions() {
-  const { values } = parseArgs({
+  const { values } = parseCommandLine({
+    usage: 'node bench/web/load_bench.mjs [options]   (or: bash bench/web/run.sh [options])',
     options: {
-      runs: { type: 'string', default: '5' },
-      profiles: { type: 'string', default: 'slow,fast' },
-      ways: { type: 'string', default: kAllWays.join(',') },
-      datasets: { type: 'string', default: 'bodyparts3d,myosim' },
-      data: { type: 'string' },
-      osteon: { type: 'string' },
-      viewer: { type: 'string' },
-      chromium: { type: 'string', default: '/usr/bin/chromium' },
-      out: { type: 'string' },
-      write: { type: 'string' },
-      svg: { type: 'string' },
-      'no-write': { type: 'boolean', default: false },
-      'no-hausdorff': { type: 'boolean', default: false },
-      fresh: { type: 'boolean', default: false },
-      timeout: { type: 'string', default: '60' },
-      json: { type: 'string' },
-      help: { type: 'boolean', short: 'h', default: false },
+      runs: { type: 'string', default: '5', arg: 'N', help: 'loads per way and network profile (default 5; medians reported)' },
+      profiles: { type: 'string', default: 'slow,fast', arg: 'LIST',
+        help: 'slow (10 Mbit/s, 40 ms) and/or fast (100 Mbit/s, 10 ms) (default slow,fast)' },
+      ways: { type: 'string', default: kAllWays.join(','), arg: 'LIST', help: 'direct,draco,gltfpack,osteon (default all)' },
+      datasets: { type: 'string', default: 'bodyparts3d,myosim', arg: 'LIST',
+        help: 'bodyparts3d,myosim,phantom (default bodyparts3d,myosim; phantom when no data)' },
+      data: { type: 'string', arg: 'DIR', help: 'the shared data folder (default $OSTEON_SHARED_DATA, else ../shared/data)' },
+      osteon: { type: 'string', arg: 'PATH', help: 'the osteon CLI (default $OSTEON_CLI, else build/release/osteon)' },
+      viewer: { type: 'string', arg: 'DIR', help: 'the built viewer (default build/viewer)' },
+      chromium: { type: 'string', default: '/usr/bin/chromium', arg: 'PATH',
+        help: 'Chromium (default /usr/bin/chromium; never downloaded)' },
+      out: { type: 'string', arg: 'DIR', help: 'prepared files and results (default build/bench-web)' },
+      write: { type: 'string', arg: 'FILE',
+        help: `the Markdown file whose "${kSectionTitle}" section is replaced\n(default docs/BENCHMARKS.md)` },
+      svg: { type: 'string', arg: 'FILE', help: 'the plot (default docs/load_time.svg)' },
+      'no-write': { type: 'boolean', default: false, help: 'print only: write neither --write nor --svg' },
+      'no-hausdorff': { type: 'boolean', default: false, help: 'skip the drawn-triangles read-back and osteon compare' },
+      fresh: { type: 'boolean', default: false, help: 'redo every preparation step' },
+      timeout: { type: 'string', default: '60', arg: 'S', help: 'seconds one page load may take (default 60)' },
+      json: { type: 'string', arg: 'FILE', help: "every run's numbers as JSON (default OUT/results.json)" },
     },
-    strict: true,
   });
-  if (values.help) {
-    console.log(kHelp);
-    process.exit(0);
-  }
   const list = (s) => s.split(',').map((x) => x.trim()).filter(Boolean);
   const runs = Number(values.runs);
   if (!Number.isInteger(runs) || runs < 1) throw new Error(`--runs: expected a positive integer, got "${values.runs}"`);
@@ -352,7 +330,7 @@ async function main() {
     summary[p.id] = byWay;
     const tableText = table(p, byWay, hausdorff, opt.profiles);
     const slow = opt.profiles.find((pr) => pr.id === 'slow');
-    // The issue's targets are set on the BodyParts3D skeleton (or on the phantom standing in for it).
+    // The load-time targets are set on the BodyParts3D skeleton (or on the phantom standing in for it).
     const targetSet = slow && (p.id === 'bodyparts3d' || p.fallback);
     const checks = targetSet && byWay.osteon ? targets(byWay, 'slow') : [];
     const lines = [`### ${p.title}`, ''];
@@ -370,9 +348,9 @@ async function main() {
     lines.push('', tableText, '');
     for (const profile of opt.profiles) lines.push(detailTable(byWay, profile), '');
     if (checks.length) {
-      lines.push(`Targets (issue 8) at ${slow.label}, computed from the medians above:`, '', ...targetLines(checks), '');
+      lines.push(`Targets at ${slow.label}, computed from the medians above:`, '', ...targetLines(checks), '');
     } else if (targetSet) {
-      lines.push('Targets (issue 8): not checked, the osteon way did not run.', '');
+      lines.push('Targets: not checked, the osteon way did not run.', '');
     }
     const failures = Object.entries(byWay).flatMap(([way, bp]) => Object.entries(bp).filter(([, s]) => s.failed).map(([pr, s]) => `${way} ${pr}: ${s.failed} of ${s.runs} runs failed (${s.errors[0]})`));
     if (failures.length) lines.push('Failed runs (left out of the medians):', '', ...failures.map((f) => `- ${f}`), '');

@@ -56,6 +56,14 @@ struct EncodeReport {
   QuantizationGrid grid;
 };
 
+/// The quantization grid encode() uses for `options` on `positions` (see EncodeOptions): the
+/// given grid, or one with its origin at the box's minimum and a step from precision or bits.
+/// Callers that encode several pieces of one part on one grid (so they meet without cracks) ask
+/// for it once and pass it in EncodeOptions::grid. Errors: kInvalidArgument for options out of
+/// range or a grid with more than 2^30 cells a side. O(V).
+Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
+                                     const EncodeOptions& options);
+
 /// Encodes a mesh. Degenerate triangles (repeated index or zero area) and unreferenced vertices
 /// are removed first and counted in the report; everything else (several components, boundaries,
 /// handles, non-manifold edges and vertices, inconsistent orientation) is coded exactly: decode()

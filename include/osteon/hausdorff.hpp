@@ -25,13 +25,6 @@
 
 namespace osteon {
 
-/// A point in double precision: sample points and closest points are computed in double from
-/// the mesh's float positions.
-struct Vec3d {
-  double x = 0, y = 0, z = 0;
-  friend bool operator==(const Vec3d&, const Vec3d&) = default;
-};
-
 /// The closest point of a surface to a query point.
 struct ClosestPoint {
   static constexpr uint32_t kNoTriangle = std::numeric_limits<uint32_t>::max();

@@ -32,13 +32,18 @@ struct ReadOptions {
   uint64_t max_file_bytes = uint64_t{4} << 30;
 };
 
+/// Reads any input osteon takes: a package folder written by osteon pack (read_package: its parts
+/// as the viewer draws them, in the manifest's unit unless options.unit is given), else what
+/// read_meshes reads. Errors: those of read_package and read_meshes.
+Result<Scene> read_path(const std::string& path, const ReadOptions& options = {});
+
 /// Reads one mesh file or a folder of them. A file gives one part, or several (OBJ groups, glTF
 /// nodes); a folder gives every mesh file below it (recursively, in sorted path order) as named
 /// parts, named by the path relative to the folder without extension, plus "/node" where one file
 /// holds several parts.
 /// Errors: kIoError for a missing or unreadable path, kInvalidData for bad bytes, kUnsupported for
 /// a format or a feature osteon does not read, and a folder holding no mesh file is kIoError.
-Result<Scene> read_path(const std::string& path, const ReadOptions& options = {});
+Result<Scene> read_meshes(const std::string& path, const ReadOptions& options = {});
 
 /// Parses one file already in memory. `source` is the name used in messages and for part names;
 /// `format` kUnknown picks the format from `source`'s extension, then from the bytes themselves.

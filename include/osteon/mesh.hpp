@@ -6,15 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "osteon/vec.hpp"
+
 // The data every stage passes on: an indexed triangle mesh with a name and a unit, and a scene of
 // named parts. Plain structs, free functions (meshoptimizer, pmp-library's simple interface).
 
 namespace osteon {
-
-struct Vec3 {
-  float x = 0, y = 0, z = 0;
-  friend bool operator==(const Vec3&, const Vec3&) = default;
-};
 
 /// The length unit a mesh's coordinates are in. Most mesh formats do not say; see
 /// Mesh::unit_source.
@@ -74,6 +71,11 @@ Mesh merge_parts(Scene&& scene);
 /// The bounding box of the positions that triangles reference (all positions when `indices` is
 /// empty).
 Aabb bounding_box(const Mesh& mesh);
+
+/// `mesh` with every position mapped by the column-major 4x4 `matrix` (transform_point: in
+/// double precision, rounded once to float) and its normals by the inverse transpose; the winding
+/// is reversed when the matrix mirrors, so the surface still faces outward.
+Mesh transform_mesh(const Mesh& mesh, const Mat4& matrix);
 
 // ---------------------------------------------------------------------------------------------
 // Welding and degenerate triangles (src/weld.cpp)

@@ -8,12 +8,13 @@
 #include <vector>
 
 #include "osteon/mesh.hpp"
+#include "osteon/package.hpp"
 #include "osteon/status.hpp"
 
-// The whole pipeline in one call (issue 7, docs/DESIGN.md "The pipeline"): read every input ->
-// clean each part -> find repeated parts -> segment each prototype part into components no larger
-// than max_triangles -> encode each component -> write content-hashed component files and the
-// manifest (docs/FORMAT.md "Package (osteon pack)").
+// The whole pipeline in one call (docs/DESIGN.md "The pipeline"): read every input -> clean each
+// part -> find repeated parts -> segment each prototype part into components no larger than
+// max_triangles -> encode each component -> write content-hashed chunk files and the manifest
+// (docs/FORMAT.md "Package, version 2"; the manifest's types are in osteon/package.hpp).
 
 namespace osteon {
 
@@ -99,18 +100,5 @@ struct PackReport {
 /// Known approximations: a repeat's error adds the sampled (lower-bound) Hausdorff tolerance it
 /// was accepted under to the quantization bound.
 Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options);
-
-/// True when `dir` is a folder holding a manifest.json (read_path then reads it as a package).
-bool is_package(const std::string& dir);
-
-/// Reads a package back as the parts a viewer draws: each part the merge of its instances'
-/// decoded components under their matrices (mirrored ones with the winding reversed), named as
-/// in the manifest, in its unit. For measuring what is shown: `osteon compare ORIGINAL PACKAGE`.
-/// Errors (naming manifest.json and the JSON path, or the chunk file): kInvalidData for a
-/// malformed manifest, an unknown component id, an out-of-range part or chunk, a byte range
-/// outside its chunk, a chunk of another size than the manifest's, a matrix that is not 16
-/// numbers, a chunk file name other than c/<24 hex digits>.ostc (nothing outside the package is
-/// opened); kUnsupported for another version; the decoder's errors (naming chunk and offset).
-Result<Scene> read_package(const std::string& dir);
 
 }  // namespace osteon

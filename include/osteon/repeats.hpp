@@ -163,12 +163,4 @@ double repeat_tolerance(const Mesh& member, const RepeatOptions& options);
 /// (an STL of a whole spine) be searched for repeats bone by bone. O(V + T).
 std::vector<Mesh> split_connected(const Mesh& mesh);
 
-/// `mesh` with every position mapped by the column-major 4x4 `matrix` (in double precision; the
-/// winding is reversed when the matrix mirrors, so the surface still faces outward).
-Mesh transform_mesh(const Mesh& mesh, const std::array<double, 16>& matrix);
-
-/// The product a * b of two column-major 4x4 matrices (b applied first).
-std::array<double, 16> multiply_matrices(const std::array<double, 16>& a,
-                                         const std::array<double, 16>& b);
-
 }  // namespace osteon

@@ -7,7 +7,7 @@
 
 #include "cli.hpp"
 #include "osteon/io.hpp"
-#include "osteon/phantom.hpp"
+#include "support/phantom.hpp"
 
 // osteon phantom -o DIR: writes the generated test skeleton, one file per part, and truth.json.
 

@@ -12,7 +12,7 @@
 
 #include "cli.hpp"
 #include "osteon/io.hpp"
-#include "osteon/segeval.hpp"
+#include "support/segeval.hpp"
 
 // osteon segeval MESH SEG REF... [--json]: SEG scored against each reference segmentation (a
 // .seg file, or a folder of them) with the Princeton Segmentation Benchmark's measures, and the

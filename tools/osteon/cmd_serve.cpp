@@ -8,7 +8,7 @@
 #include <string>
 
 #include "cli.hpp"
-#include "osteon/serve.hpp"
+#include "serve.hpp"
 
 // osteon serve DIR [--port 8080] [--host 127.0.0.1] [--threads N]
 // Serves a package folder (what `osteon pack` writes) over HTTP until SIGINT or SIGTERM; prints the

@@ -1,0 +1,93 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "osteon/mesh.hpp"
+#include "osteon/status.hpp"
+#include "osteon/vec.hpp"
+
+// The package format (docs/FORMAT.md "Package, version 2") as plain data: what osteon pack
+// writes, what read_package and the viewer (web/viewer/manifest.mjs) read. One writer and one
+// parser; both the C++ parser and the viewer's are tested on the same golden manifests
+// (tests/data/manifests).
+
+namespace osteon {
+
+/// The manifest version this build writes and reads.
+inline constexpr int kManifestVersion = 2;
+
+/// A chunk file: component streams concatenated in stream order.
+struct ManifestChunk {
+  std::string file;  ///< "c/<24 lower-case hex digits>.ostc", relative to the package folder
+  uint64_t bytes = 0;
+};
+
+/// A named part (one bone); its index in Manifest::parts is its id.
+struct ManifestPart {
+  std::string name;          ///< the part's name in the input (file stem, glTF node)
+  std::string display_name;  ///< what the viewer shows
+  std::string group;
+  std::string source;  ///< the input file's name
+  uint64_t triangles = 0;
+  uint64_t prototype = 0;  ///< the part whose components it draws (itself unless a repeat)
+};
+
+/// One encoded stream: a byte range of a chunk.
+struct ManifestComponent {
+  std::string id;
+  uint64_t chunk = 0;  ///< index into Manifest::chunks
+  uint64_t offset = 0;
+  uint64_t bytes = 0;
+  uint64_t triangles = 0;
+  uint64_t vertices = 0;
+  Aabb bounds;  ///< in the prototype's frame
+  double error_bound = 0;  ///< the largest distance of a decoded vertex from the input, in unit
+};
+
+/// A component drawn for a part under a matrix.
+struct ManifestInstance {
+  uint64_t part = 0;
+  std::string component;  ///< a ManifestComponent::id
+  Mat4 matrix = kIdentityMatrix;
+  bool mirror = false;  ///< determinant3(matrix) < 0: drawn with the winding reversed
+  double error_bound = 0;  ///< the component's bound plus the repeat substitution's tolerance
+};
+
+struct Manifest {
+  Unit unit = Unit::kUnknown;
+  Aabb bounds;  ///< of every part, in world coordinates
+  std::vector<ManifestChunk> chunks;
+  std::vector<ManifestPart> parts;
+  std::vector<ManifestComponent> components;
+  std::vector<ManifestInstance> instances;
+  std::vector<std::string> stream_order;  ///< every component id once, in fetch order
+};
+
+/// The manifest.json text: compact JSON (keys sorted), every coordinate, matrix entry and bound
+/// printed as the shortest decimal of the nearest float (bounds rounded up, never below), a final
+/// newline. Deterministic: equal manifests give equal bytes. O(size).
+std::string write_manifest(const Manifest& manifest);
+
+/// Parses and checks manifest.json text: every field the format requires, each in range (chunk
+/// file names c/<24 hex>.ostc only, chunk and part indices, byte ranges inside their chunk, ids
+/// unique and known, 16 finite numbers in a non-singular matrix, boxes with min <= max, every
+/// component once in stream_order). Errors: kInvalidData naming `source` and the JSON path
+/// ("instances[3].matrix: ..."); kUnsupported for another version. Allocates O(size).
+Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::string& source);
+
+/// True when `dir` is a folder holding a manifest.json (read_path then reads it as a package).
+bool is_package(const std::string& dir);
+
+/// Reads a package back as the parts a viewer draws: each part the merge of its instances'
+/// decoded components under their matrices (mirrored ones with the winding reversed), named as
+/// in the manifest, in its unit. For measuring what is shown: `osteon compare ORIGINAL PACKAGE`.
+/// Errors: parse_manifest's (naming manifest.json and the JSON path); kInvalidData for a chunk
+/// of another size than the manifest's; read_file's for a missing chunk (only c/<hex>.ostc names
+/// inside the package are ever opened); the decoder's errors (naming chunk and offset).
+Result<Scene> read_package(const std::string& dir);
+
+}  // namespace osteon

@@ -1,0 +1,133 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "codec/codec_internal.hpp"
+#include "core/byte_io.hpp"
+#include "codec/connectivity.hpp"
+#include "codec/geometry.hpp"
+#include "codec/normals.hpp"
+#include "osteon/codec.hpp"
+
+// The codec's encoder: cleans the mesh, quantizes it, codes connectivity then geometry in the
+// connectivity's vertex order, and writes the container (docs/FORMAT.md, "Mesh stream").
+
+namespace osteon {
+
+namespace {
+
+Status invalid(const std::string& what) {
+  return error(ErrorCode::kInvalidArgument, "encode", what);
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& options,
+                                    EncodeReport* report) {
+  for (uint32_t index : input.indices) {
+    if (index >= input.positions.size()) {
+      return invalid("triangle index " + std::to_string(index) + " is out of range (" +
+                     std::to_string(input.positions.size()) + " vertices)");
+    }
+  }
+  if (input.indices.size() % 3 != 0) return invalid("the index count is not a multiple of 3");
+  for (const Vec3& p : input.positions) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      return invalid("the mesh has a NaN or infinite position");
+    }
+  }
+  if (input.triangle_count() > detail::kMaxTriangles) {
+    return invalid("more than 2^28 triangles in one mesh: split it into components first");
+  }
+  if (options.normals && (options.normal_bits < 8 || options.normal_bits > 16)) {
+    return invalid("normal bits must be between 8 and 16, not " +
+                   std::to_string(options.normal_bits));
+  }
+
+  Mesh mesh;
+  mesh.positions = input.positions;
+  mesh.indices = input.indices;
+  if (options.normals && input.normals.size() == input.positions.size()) {
+    for (const Vec3& n : input.normals) {
+      if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
+        return invalid("the mesh has a NaN or infinite normal");
+      }
+    }
+    mesh.normals = input.normals;
+  }
+  EncodeReport r;
+  r.degenerate_removed = remove_degenerate_triangles(mesh);
+  r.unreferenced_removed = remove_unreferenced_vertices(mesh);
+  OSTEON_ASSIGN_OR_RETURN(QuantizationGrid grid, choose_grid(mesh.positions, options));
+  detail::QuantizedPositions q = detail::quantize(mesh.positions, grid);
+
+  uint32_t vertex_count = static_cast<uint32_t>(mesh.positions.size());
+  OSTEON_ASSIGN_OR_RETURN(detail::ConnectivityEncoding connectivity,
+                          detail::encode_connectivity(mesh.indices, vertex_count));
+  detail::QuantizedPositions ordered;
+  ordered.xyz.resize(q.xyz.size());
+  for (uint32_t d = 0; d < vertex_count; ++d) {
+    uint32_t v = connectivity.vertex_order[d];
+    for (int k = 0; k < 3; ++k) ordered.xyz[3 * size_t{d} + k] = q.xyz[3 * size_t{v} + k];
+  }
+  std::vector<uint8_t> geometry;
+  detail::encode_geometry(connectivity.decoded_newest, ordered, &geometry);
+  std::vector<uint8_t> normals;
+  if (options.normals) {
+    if (mesh.normals.empty()) mesh.normals = compute_vertex_normals(mesh);
+    std::vector<Vec3> ordered_normals(vertex_count);
+    for (uint32_t d = 0; d < vertex_count; ++d) {
+      ordered_normals[d] = mesh.normals[connectivity.vertex_order[d]];
+    }
+    detail::encode_normals(connectivity.decoded_indices, ordered, ordered_normals,
+                           options.normal_bits, &normals);
+  }
+
+  std::vector<uint8_t> out;
+  out.reserve(detail::kStreamHeaderBytes + connectivity.bytes.size() + geometry.size() +
+              detail::kStreamChecksumBytes);
+  ByteWriter writer(&out);
+  writer.write_bytes(detail::kStreamMagic, 4);
+  writer.write_le<uint8_t>(detail::kStreamVersion);
+  writer.write_le<uint8_t>(normals.empty() ? 0 : 1);  // flags: bit 0 = normals section present
+  writer.write_le<uint16_t>(0);
+  writer.write_le<uint32_t>(vertex_count);
+  writer.write_le<uint32_t>(static_cast<uint32_t>(mesh.triangle_count()));
+  writer.write_le<double>(grid.origin.x);
+  writer.write_le<double>(grid.origin.y);
+  writer.write_le<double>(grid.origin.z);
+  writer.write_le<double>(grid.step);
+  writer.write_le<uint32_t>(static_cast<uint32_t>(connectivity.bytes.size()));
+  writer.write_le<uint32_t>(static_cast<uint32_t>(geometry.size()));
+  writer.write_le<uint32_t>(static_cast<uint32_t>(normals.size()));
+  writer.write_bytes(connectivity.bytes.data(), connectivity.bytes.size());
+  writer.write_bytes(geometry.data(), geometry.size());
+  writer.write_bytes(normals.data(), normals.size());
+  writer.write_le<uint32_t>(detail::crc32(out.data(), out.size()));
+
+  if (report != nullptr) {
+    r.bytes = out.size();
+    r.connectivity_bytes = connectivity.bytes.size();
+    r.geometry_bytes = geometry.size();
+    r.normal_bytes = normals.size();
+    r.vertices = vertex_count;
+    r.triangles = mesh.triangle_count();
+    r.grid = grid;
+    r.grid_step = grid.step;
+    if (vertex_count > 0) {
+      r.connectivity_bits_per_vertex = 8.0 * double(r.connectivity_bytes) / vertex_count;
+      r.geometry_bits_per_vertex = 8.0 * double(r.geometry_bytes) / vertex_count;
+    }
+    std::vector<Vec3> back = detail::dequantize(q, grid);
+    for (size_t i = 0; i < back.size(); ++i) {
+      r.max_error = std::max({r.max_error, std::fabs(double(back[i].x) - mesh.positions[i].x),
+                              std::fabs(double(back[i].y) - mesh.positions[i].y),
+                              std::fabs(double(back[i].z) - mesh.positions[i].z)});
+    }
+    *report = r;
+  }
+  return out;
+}
+
+}  // namespace osteon

@@ -1,0 +1,876 @@
+// SPDX-License-Identifier: Apache-2.0
+#include "codec/entropy.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cassert>
+#include <cmath>
+#include <queue>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/byte_io.hpp"
+#include "osteon/status.hpp"
+
+// Based on: J. Duda, "Asymmetric numeral systems: entropy coding combining speed of Huffman coding
+// with compression rate of arithmetic coding", arXiv:1311.2540 (2013), and F. Giesen's ryg_rans
+// (byte-wise 32-bit rANS: state in [2^23, 2^31), 12-bit probabilities, encoding in reverse so the
+// decoder reads forwards). Tables use Elias gamma and exponential-Golomb codes (Teuhola 1978).
+//
+// The section layout is in docs/FORMAT.md ("Symbol section"). In short: the tables carry a weight
+// per present symbol (its count, or its count shifted right when that codes smaller), and both
+// sides scale the weights to 12-bit frequencies with the same integer-only function, normalize()
+// below. Counts of a small mesh are small numbers, so this is cheaper than sending frequencies.
+// Contexts may share a table: the encoder merges contexts whose own tables would cost more than
+// sharing loses (group_contexts()), which keeps many-context models affordable on small meshes.
+
+namespace osteon::detail {
+namespace {
+
+constexpr uint32_t kProbBits = 12;
+constexpr uint32_t kProbScale = 1u << kProbBits;  // frequencies of a context sum to this
+constexpr uint32_t kRansLow = 1u << 23;           // the state lives in [kRansLow, 2^31)
+constexpr uint64_t kMaxSymbols = 0xffffffffu;
+constexpr int kMaxGammaZeros = 32;   // gamma-coded values are < 2^33
+constexpr int kMaxGolombOrder = 31;  // so (2^33 - 1) << k fits in 64 bits
+// The symbols are coded by kStates interleaved rANS states: symbol i by state i mod kStates.
+constexpr uint32_t kStates = 3;
+// A decode step in a context of two or more symbols (every frequency <= 4095) shrinks its state
+// by a factor <= 1 - 2^-12 (plus 1); a byte read grows it by < 2^8. Starting below 2^31 and
+// ending at >= 2^23, a state that reads R renormalisation bytes decodes fewer than
+// 22,720 * (R + 1) such symbols, so kStates states reading R bytes in all fewer than
+// 22,720 * (R + kStates); kSymbolsPerByte rounds that up.
+constexpr uint64_t kSymbolsPerByte = 8 * kProbScale;
+
+// ---- bit-level codes for the tables ----------------------------------------------------------
+
+/// Bits written LSB-first into bytes (bit i of the stream is bit i % 8 of byte i / 8).
+class BitWriter {
+ public:
+  void put(uint64_t value, int count) {
+    for (int i = 0; i < count; ++i, ++count_) {
+      if ((count_ & 7) == 0) bytes_.push_back(0);
+      bytes_.back() |= static_cast<uint8_t>(((value >> i) & 1) << (count_ & 7));
+    }
+  }
+  /// Elias gamma, value >= 1: floor(log2 v) zeros, a one, then v's bits below its top bit.
+  void gamma(uint64_t value) {
+    const int width = std::bit_width(value);
+    put(0, width - 1);
+    put(1, 1);
+    put(value, width - 1);
+  }
+  /// Exponential-Golomb of order k: gamma((v >> k) + 1), then the low k bits of v.
+  void exp_golomb(uint64_t value, int k) {
+    gamma((value >> k) + 1);
+    put(value, k);
+  }
+  const std::vector<uint8_t>& bytes() const { return bytes_; }
+
+ private:
+  std::vector<uint8_t> bytes_;
+  uint64_t count_ = 0;
+};
+
+int gamma_bits(uint64_t value) {
+  return 2 * std::bit_width(value) - 1;
+}
+int exp_golomb_bits(uint64_t value, int k) {
+  return gamma_bits((value >> k) + 1) + k;
+}
+
+/// Reads what BitWriter wrote; every read fails (returns false) past the end instead of reading.
+class BitReader {
+ public:
+  BitReader(const uint8_t* data, size_t size) : data_(data), size_bits_(uint64_t{size} * 8) {}
+
+  bool get(int count, uint64_t* out) {
+    if (static_cast<uint64_t>(count) > size_bits_ - pos_) return false;
+    uint64_t value = 0;
+    for (int i = 0; i < count; ++i, ++pos_) {
+      value |= static_cast<uint64_t>((data_[pos_ >> 3] >> (pos_ & 7)) & 1) << i;
+    }
+    *out = value;
+    return true;
+  }
+  bool gamma(uint64_t* out) {
+    int zeros = 0;
+    for (;;) {
+      uint64_t bit = 0;
+      if (!get(1, &bit)) return false;
+      if (bit == 1) break;
+      if (++zeros > kMaxGammaZeros) return false;
+    }
+    uint64_t low = 0;
+    if (!get(zeros, &low)) return false;
+    *out = (uint64_t{1} << zeros) | low;
+    return true;
+  }
+  bool exp_golomb(int k, uint64_t* out) {
+    uint64_t high = 0;
+    uint64_t low = 0;
+    if (!gamma(&high) || !get(k, &low)) return false;
+    *out = ((high - 1) << k) | low;
+    return true;
+  }
+  /// Whole bytes touched so far, and whether the unused bits of the last one are zero.
+  size_t bytes_used() const { return static_cast<size_t>((pos_ + 7) / 8); }
+  size_t byte_offset() const { return static_cast<size_t>(pos_ / 8); }
+  bool padding_is_zero() const { return (pos_ & 7) == 0 || (data_[pos_ >> 3] >> (pos_ & 7)) == 0; }
+
+ private:
+  const uint8_t* data_;
+  uint64_t size_bits_;
+  uint64_t pos_ = 0;
+};
+
+// ---- frequency tables ------------------------------------------------------------------------
+
+/// A table as the table block carries it: the present symbols (increasing) and a weight >= 1 for
+/// each. Frequencies are normalize(weights): the weights are the symbol counts of the contexts
+/// sharing the table, or the counts shifted right where the table would cost more than the
+/// precision is worth.
+struct WeightTable {
+  std::vector<uint32_t> symbols;
+  std::vector<uint32_t> weights;
+};
+
+/// Scales `weights` (1..kProbScale of them, each >= 1) to frequencies >= 1 that sum to exactly
+/// kProbScale, minimising the coded size sum(w * log2(kProbScale / f)): rounds the proportional
+/// share, then moves single slots greedily, taking from the symbol that loses least
+/// (w * log(f / (f-1)) ~ w / (f - 1/2)) or giving to the one that gains most (w / (f + 1/2)).
+/// Integer arithmetic only, so the encoder and every decoder (native or WebAssembly) compute the
+/// same table. A single symbol gets all kProbScale slots and then costs no bits.
+/// O(n log n) for n weights.
+OSTEON_COLD_FUNCTION std::vector<uint32_t> normalize(const std::vector<uint32_t>& weights) {
+  const size_t n = weights.size();
+  assert(n >= 1 && n <= kProbScale);
+  std::vector<uint32_t> freq(n, kProbScale);
+  if (n == 1) return freq;
+  uint64_t total = 0;  // < 2^44
+  for (uint32_t w : weights) total += w;
+  uint64_t sum = 0;
+  for (size_t i = 0; i < n; ++i) {
+    freq[i] = static_cast<uint32_t>(
+        std::max<uint64_t>(1, (uint64_t{weights[i]} * kProbScale + total / 2) / total));
+    sum += freq[i];
+  }
+  // Products stay below 2^32 * 2^14: no overflow. Ties go to the lower symbol.
+  if (sum > kProbScale) {
+    auto costs_more = [&](size_t a, size_t b) {  // heap top = cheapest slot to take
+      const uint64_t lhs = uint64_t{weights[a]} * (2 * freq[b] - 1);
+      const uint64_t rhs = uint64_t{weights[b]} * (2 * freq[a] - 1);
+      return lhs != rhs ? lhs > rhs : a > b;
+    };
+    std::priority_queue<size_t, std::vector<size_t>, decltype(costs_more)> heap(costs_more);
+    for (size_t i = 0; i < n; ++i) {
+      if (freq[i] > 1) heap.push(i);
+    }
+    for (; sum > kProbScale; --sum) {  // n <= kProbScale: some freq > 1 remains
+      const size_t i = heap.top();
+      heap.pop();
+      if (--freq[i] > 1) heap.push(i);
+    }
+  } else if (sum < kProbScale) {
+    auto gains_less = [&](size_t a, size_t b) {  // heap top = most useful slot to give
+      const uint64_t lhs = uint64_t{weights[a]} * (2 * freq[b] + 1);
+      const uint64_t rhs = uint64_t{weights[b]} * (2 * freq[a] + 1);
+      return lhs != rhs ? lhs < rhs : a > b;
+    };
+    std::priority_queue<size_t, std::vector<size_t>, decltype(gains_less)> heap(gains_less);
+    for (size_t i = 0; i < n; ++i) heap.push(i);
+    for (; sum < kProbScale; ++sum) {
+      const size_t i = heap.top();
+      heap.pop();
+      ++freq[i];
+      heap.push(i);
+    }
+  }
+  return freq;
+}
+
+/// How a model is written (FORMAT.md): presence dense (a weight for every symbol up to the last
+/// present one, 0 = absent) or sparse (the present symbols' gaps), and the weights'
+/// exponential-Golomb order.
+struct ModelCode {
+  bool dense = false;
+  int order = 0;
+};
+
+/// Bits write_model spends on `model`.
+uint64_t model_bits(const WeightTable& model, ModelCode code) {
+  const size_t n = model.symbols.size();
+  uint64_t bits = 1;
+  if (code.dense) {
+    const uint32_t top = model.symbols.back();
+    bits += gamma_bits(top + 1) + gamma_bits(code.order + 1);
+    bits += uint64_t{top + 1 - n} * exp_golomb_bits(0, code.order);
+    for (uint32_t w : model.weights) bits += exp_golomb_bits(w, code.order);
+  } else {
+    bits += gamma_bits(n);
+    uint32_t previous = ~0u;
+    for (uint32_t s : model.symbols) {
+      bits += gamma_bits(s - previous);
+      previous = s;
+    }
+    if (n > 1) {
+      bits += gamma_bits(code.order + 1);
+      for (uint32_t w : model.weights) bits += exp_golomb_bits(w - 1, code.order);
+    }
+  }
+  return bits;
+}
+
+void write_model(BitWriter* out, const WeightTable& model, ModelCode code) {
+  const size_t n = model.symbols.size();
+  out->put(code.dense ? 0 : 1, 1);
+  if (code.dense) {
+    out->gamma(model.symbols.back() + 1);
+    out->gamma(static_cast<uint64_t>(code.order) + 1);
+    for (size_t i = 0, s = 0; i < n; ++s) {
+      if (model.symbols[i] == s) {
+        out->exp_golomb(model.weights[i++], code.order);
+      } else {
+        out->exp_golomb(0, code.order);
+      }
+    }
+  } else {
+    out->gamma(n);
+    uint32_t previous = ~0u;
+    for (uint32_t s : model.symbols) {
+      out->gamma(s - previous);
+      previous = s;
+    }
+    if (n > 1) {
+      out->gamma(static_cast<uint64_t>(code.order) + 1);
+      for (uint32_t w : model.weights) out->exp_golomb(w - 1, code.order);
+    }
+  }
+}
+
+/// The model of a context whose symbols occurred `counts` times (`alphabet` entries, some > 0)
+/// and the way to write it that minimise table bits plus coded bits: weights = counts >> s
+/// (rounded, at least 1) for the best s. Small streams keep exact counts where they are small
+/// and cheap; large ones drop the precision the 12-bit frequencies cannot use anyway.
+std::pair<WeightTable, ModelCode> choose_model(const uint32_t* counts, uint32_t alphabet) {
+  WeightTable exact;
+  uint32_t largest = 0;
+  for (uint32_t s = 0; s < alphabet; ++s) {
+    if (counts[s] == 0) continue;
+    exact.symbols.push_back(s);
+    exact.weights.push_back(counts[s]);
+    largest = std::max(largest, counts[s]);
+  }
+  if (exact.symbols.size() == 1) {  // deterministic: the weight is not written
+    exact.weights[0] = 1;
+    return {exact, ModelCode{false, 0}};
+  }
+  std::pair<WeightTable, ModelCode> best;
+  double best_bits = INFINITY;
+  WeightTable model = exact;
+  for (int shift = 0; shift <= static_cast<int>(std::bit_width(largest)); ++shift) {
+    uint64_t weight_sum = 0;
+    for (size_t i = 0; i < exact.weights.size(); ++i) {
+      const uint64_t rounded = (uint64_t{exact.weights[i]} + (uint64_t{1} << shift >> 1)) >> shift;
+      model.weights[i] = static_cast<uint32_t>(std::max<uint64_t>(1, rounded));
+      weight_sum += model.weights[i];
+    }
+    const std::vector<uint32_t> freq = normalize(model.weights);
+    double coded = 0;
+    for (size_t i = 0; i < freq.size(); ++i) {
+      coded += exact.weights[i] * std::log2(static_cast<double>(kProbScale) / freq[i]);
+    }
+    // exp-Golomb is shortest near order log2(mean weight); try the orders around it.
+    const int mean_width = std::bit_width(weight_sum / model.weights.size());
+    for (int order = std::max(0, mean_width - 3); order <= mean_width + 1; ++order) {
+      for (bool dense : {false, true}) {
+        const double bits = coded + static_cast<double>(model_bits(model, {dense, order}));
+        if (bits < best_bits) {
+          best_bits = bits;
+          best = {model, ModelCode{dense, order}};
+        }
+      }
+    }
+    if (weight_sum == model.weights.size()) break;  // all ones: coarser changes nothing
+  }
+  return best;
+}
+
+/// (symbol, count) pairs of the symbols that occur, by symbol.
+using SparseCounts = std::vector<std::pair<uint32_t, uint32_t>>;
+
+/// A rough size of a table plus the symbols it codes: their empirical entropy, about
+/// 2 + log2(count) bits per present symbol for presence and weight, and a few bits of header.
+/// Accumulated symbol by symbol: entropy = total * log2(total) - sum(count * log2(count)).
+struct SizeEstimate {
+  uint64_t total = 0;
+  double count_log_count = 0;
+  double table_bits = 8;
+  void add(uint32_t count) {
+    const double c = count;
+    total += count;
+    count_log_count += c * std::log2(c);
+    table_bits += 2 + std::log2(1 + c);
+  }
+  double bits() const {
+    const double t = static_cast<double>(total);
+    return t * std::log2(t) - count_log_count + table_bits;
+  }
+};
+
+double estimated_bits(const SparseCounts& counts) {
+  SizeEstimate e;
+  for (const auto& [symbol, count] : counts) e.add(count);
+  return e.bits();
+}
+
+/// estimated_bits() of the union of a and b, or the union itself when `out` is given.
+double merged_bits(const SparseCounts& a, const SparseCounts& b, SparseCounts* out = nullptr) {
+  SizeEstimate e;
+  size_t i = 0;
+  size_t j = 0;
+  while (i < a.size() || j < b.size()) {
+    std::pair<uint32_t, uint32_t> next;
+    if (j == b.size() || (i < a.size() && a[i].first < b[j].first)) {
+      next = a[i++];
+    } else if (i == a.size() || b[j].first < a[i].first) {
+      next = b[j++];
+    } else {
+      next = {a[i].first, a[i].second + b[j].second};
+      ++i;
+      ++j;
+    }
+    e.add(next.second);
+    if (out != nullptr) out->push_back(next);
+  }
+  return e.bits();
+}
+
+/// Which table each used context (row of `counts`, `alphabet` wide) codes with: contexts share a
+/// table where the table bits saved outweigh the coding loss, which matters for small meshes
+/// whose many contexts see a few symbols each. Greedy agglomerative merging on the estimate
+/// above, best pair first. Only rows with fewer than kMergeBelow symbols take part, the smallest
+/// first, at most kMergeCandidates of them and few enough that m^2 * min(alphabet, present
+/// symbols) stays under kMergeWork, which bounds the time. Returns a group per row (the row
+/// whose counts the group's table uses); rows of a group share a table.
+constexpr size_t kMergeCandidates = 512;
+constexpr uint64_t kMergeBelow = 4096;
+constexpr uint64_t kMergeWork = uint64_t{1} << 22;
+
+std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32_t rows,
+                                     uint32_t alphabet) {
+  std::vector<uint32_t> group(rows);
+  struct Candidate {
+    uint64_t symbols;
+    uint32_t present;
+    uint32_t row;
+  };
+  std::vector<Candidate> sizes;
+  for (uint32_t r = 0; r < rows; ++r) {
+    group[r] = r;
+    Candidate c{0, 0, r};
+    for (uint32_t s = 0; s < alphabet; ++s) {
+      c.symbols += counts[size_t{r} * alphabet + s];
+      c.present += counts[size_t{r} * alphabet + s] > 0 ? 1 : 0;
+    }
+    if (c.symbols < kMergeBelow) sizes.push_back(c);
+  }
+  std::sort(sizes.begin(), sizes.end(), [](const Candidate& a, const Candidate& b) {
+    return a.symbols != b.symbols ? a.symbols < b.symbols : a.row < b.row;
+  });
+  size_t m = 0;
+  for (uint64_t present = 0; m < std::min(sizes.size(), kMergeCandidates); ++m) {
+    present += sizes[m].present;
+    if (uint64_t{m + 1} * (m + 1) * std::min<uint64_t>(alphabet, present) > kMergeWork) break;
+  }
+  if (m < 2) return group;
+
+  std::vector<SparseCounts> cluster(m);
+  std::vector<double> bits(m);
+  std::vector<uint32_t> version(m, 0);  // bumped by every merge into the cluster
+  std::vector<bool> alive(m, true);
+  for (size_t i = 0; i < m; ++i) {
+    const uint32_t* row = &counts[size_t{sizes[i].row} * alphabet];
+    for (uint32_t s = 0; s < alphabet; ++s) {
+      if (row[s] > 0) cluster[i].emplace_back(s, row[s]);
+    }
+    bits[i] = estimated_bits(cluster[i]);
+  }
+  // Candidate merges by bits saved, stale entries (a merged cluster's old gains) skipped.
+  struct Merge {
+    double gain;
+    uint32_t a, b, version_a, version_b;
+    bool operator<(const Merge& o) const { return gain < o.gain; }
+  };
+  constexpr double kReferenceBits = 3;  // a context naming a table defined before it
+  std::priority_queue<Merge> merges;
+  auto consider = [&](size_t a, size_t b) {
+    const double gain = bits[a] + bits[b] - merged_bits(cluster[a], cluster[b]) - kReferenceBits;
+    if (gain > 0) {
+      merges.push(
+          Merge{gain, static_cast<uint32_t>(a), static_cast<uint32_t>(b), version[a], version[b]});
+    }
+  };
+  for (size_t a = 0; a < m; ++a) {
+    for (size_t b = a + 1; b < m; ++b) consider(a, b);
+  }
+  while (!merges.empty()) {
+    const Merge best = merges.top();
+    merges.pop();
+    const uint32_t a = best.a;
+    const uint32_t b = best.b;
+    if (!alive[a] || !alive[b] || version[a] != best.version_a || version[b] != best.version_b) {
+      continue;
+    }
+    SparseCounts both;
+    bits[a] = merged_bits(cluster[a], cluster[b], &both);
+    cluster[a] = std::move(both);
+    ++version[a];
+    alive[b] = false;
+    cluster[b].clear();
+    for (uint32_t& g : group) {
+      if (g == sizes[b].row) g = sizes[a].row;
+    }
+    for (size_t j = 0; j < m; ++j) {
+      if (alive[j] && j != a) consider(a, j);
+    }
+  }
+  return group;
+}
+
+/// Messages for one section: "bone.osteon: connectivity: what (byte N)".
+struct SectionErrors {
+  const std::string& source;
+  const std::string& what;
+  Status operator()(size_t offset, const std::string& message) const {
+    return error(ErrorCode::kInvalidData, source, what + ": " + message, at_byte(offset));
+  }
+};
+
+/// The table block as read: the tables, and the table of each context that occurs.
+struct TableBlock {
+  std::vector<WeightTable> models;
+  std::vector<std::pair<uint32_t, uint32_t>> table_of;  // (context, index in models)
+};
+
+/// Reads one table (write_model's layout), checking every symbol and weight. Errors name the
+/// byte `base` + the reader's position.
+OSTEON_COLD_FUNCTION Status read_model(BitReader& bits, uint32_t alphabet, uint64_t context,
+                                       const SectionErrors& errors, size_t base,
+                                       WeightTable* model) {
+  auto bad = [&](const std::string& message) { return errors(base + bits.byte_offset(), message); };
+  uint64_t sparse = 0;
+  uint64_t count = 0;  // dense: symbols up to the last present one; sparse: present symbols
+  if (!bits.get(1, &sparse) || !bits.gamma(&count)) return bad("truncated frequency tables");
+  if (count > alphabet) {
+    return bad(message("% symbols in context %, alphabet %", {count, context, alphabet}));
+  }
+  if (sparse == 1) {
+    uint64_t symbol = ~uint64_t{0};  // "-1": the first gap is symbol + 1
+    for (uint64_t i = 0; i < count; ++i) {
+      uint64_t gap = 0;
+      if (!bits.gamma(&gap)) return bad("truncated frequency tables");
+      symbol += gap;
+      if (symbol >= alphabet) {
+        return bad(message("symbol % out of range in context % (alphabet %)",
+                           {symbol, context, alphabet}));
+      }
+      model->symbols.push_back(static_cast<uint32_t>(symbol));
+    }
+    if (count == 1) {  // deterministic: no weight
+      model->weights.push_back(1);
+      return Status::ok_status();
+    }
+  }
+  uint64_t order = 0;  // stored + 1
+  if (!bits.gamma(&order)) return bad("truncated frequency tables");
+  if (order - 1 > kMaxGolombOrder) {
+    return bad(message("bad weight code % in context %", {order - 1, context}));
+  }
+  for (uint64_t i = 0; i < count; ++i) {
+    uint64_t weight = 0;
+    if (!bits.exp_golomb(static_cast<int>(order - 1), &weight)) {
+      return bad("truncated frequency tables");
+    }
+    weight += sparse;  // sparse weights are stored - 1; dense ones are 0 for absent symbols
+    if (weight > 0xffffffffu) return bad(message("weight out of range in context %", {context}));
+    if (sparse == 0 && weight != 0) model->symbols.push_back(static_cast<uint32_t>(i));
+    if (weight != 0) model->weights.push_back(static_cast<uint32_t>(weight));
+  }
+  if (model->symbols.empty()) return bad(message("no symbols in context %", {context}));
+  return Status::ok_status();
+}
+
+/// Reads the table block (FORMAT.md) from `in`, checking every context, reference, symbol and
+/// weight.
+OSTEON_COLD_FUNCTION Status read_tables(ByteReader& in, uint32_t alphabet, uint32_t contexts,
+                                        const SectionErrors& bad, TableBlock* tables) {
+  const size_t base = in.offset();
+  BitReader bits(in.current(), in.remaining());
+  auto bad_here = [&](const std::string& message) {
+    return bad(base + bits.byte_offset(), message);
+  };
+  uint64_t used = 0;
+  if (!bits.gamma(&used)) return bad_here("truncated frequency tables");
+  if (used > contexts) {
+    return bad(base, message("% contexts declared, the coder has %", {used, contexts}));
+  }
+  uint64_t context = ~uint64_t{0};  // "-1": the first gap is context + 1
+  for (uint64_t u = 0; u < used; ++u) {
+    uint64_t gap = 0;
+    uint64_t reference = 0;  // 1: a new table follows; r >= 2: the table defined (r - 2)th
+    if (!bits.gamma(&gap) || !bits.gamma(&reference)) {
+      return bad_here("truncated frequency tables");
+    }
+    context += gap;
+    if (context >= contexts) {
+      return bad_here(message("context % out of range (% contexts)", {context, contexts}));
+    }
+    if (reference == 1) {
+      WeightTable model;
+      OSTEON_RETURN_IF_ERROR(read_model(bits, alphabet, context, bad, base, &model));
+      tables->models.push_back(std::move(model));
+      reference = tables->models.size() + 1;
+    } else if (reference - 2 >= tables->models.size()) {
+      return bad_here(message("table % named in context %, only % defined",
+                              {reference - 2, context, tables->models.size()}));
+    }
+    tables->table_of.emplace_back(static_cast<uint32_t>(context),
+                                  static_cast<uint32_t>(reference - 2));
+  }
+  if (!bits.padding_is_zero()) return bad_here("nonzero padding after the frequency tables");
+  (void)in.skip(bits.bytes_used());
+  return Status::ok_status();
+}
+
+}  // namespace
+
+OSTEON_COLD_FUNCTION std::string message(const char* pattern,
+                                         std::initializer_list<uint64_t> numbers) {
+  std::string out;
+  const uint64_t* next = numbers.begin();
+  for (const char* p = pattern; *p != 0; ++p) {
+    if (*p != '%' || next == numbers.end()) {
+      out += *p;
+      continue;
+    }
+    char digits[20];
+    int n = 0;
+    for (uint64_t v = *next++; n == 0 || v != 0; v /= 10)
+      digits[n++] = static_cast<char>('0' + v % 10);
+    while (n > 0) out += digits[--n];
+  }
+  return out;
+}
+
+// ---- encoder ---------------------------------------------------------------------------------
+
+SymbolEncoder::SymbolEncoder(uint32_t alphabet, uint32_t contexts)
+    : alphabet_(alphabet), contexts_(contexts) {
+  assert(alphabet >= 2 && alphabet <= kProbScale);
+  assert(contexts >= 1 && contexts <= 4096);
+}
+
+void SymbolEncoder::put(uint32_t context, uint32_t symbol) {
+  assert(context < contexts_ && symbol < alphabet_);
+  assert(queued_.size() < kMaxSymbols);
+  queued_.push_back(context << kProbBits | symbol);
+}
+
+void SymbolEncoder::put_bits(uint32_t value, int count) {
+  assert(count >= 0 && count <= 32);
+  if (count == 0) return;
+  const uint64_t bits = value & ((uint64_t{1} << count) - 1);
+  const uint64_t end = bit_count_ + static_cast<uint64_t>(count);
+  bits_.resize(static_cast<size_t>((end + 7) / 8), 0);
+  const uint64_t shifted = bits << (bit_count_ & 7);  // at most 39 bits
+  for (size_t i = static_cast<size_t>(bit_count_ / 8), b = 0; i < bits_.size(); ++i, b += 8) {
+    bits_[i] |= static_cast<uint8_t>(shifted >> b);
+  }
+  bit_count_ = end;
+}
+
+void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
+  const size_t n = queued_.size();
+  ByteWriter writer(out);
+  writer.write_varint(n);
+  writer.write_varint(bit_count_);
+  if (n > 0) {
+    // Count the symbols of each context that occurs; row[c] indexes its counts.
+    constexpr uint32_t kUnused = 0xffffffffu;
+    std::vector<uint32_t> row(contexts_, kUnused);
+    uint32_t used = 0;
+    for (uint32_t q : queued_) {
+      if (row[q >> kProbBits] == kUnused) row[q >> kProbBits] = used++;
+    }
+    std::vector<uint32_t> counts(size_t{used} * alphabet_, 0);
+    for (uint32_t q : queued_)
+      ++counts[size_t{row[q >> kProbBits]} * alphabet_ + (q & (kProbScale - 1))];
+
+    // Contexts that share a table get the sum of their counts; group[row] is the row holding it.
+    const std::vector<uint32_t> group = group_contexts(counts, used, alphabet_);
+    for (uint32_t r = 0; r < used; ++r) {
+      if (group[r] == r) continue;
+      for (uint32_t s = 0; s < alphabet_; ++s) {
+        counts[size_t{group[r]} * alphabet_ + s] += counts[size_t{r} * alphabet_ + s];
+      }
+    }
+
+    // Tables, in context order, each defined where its first context occurs; freq/start per
+    // (group row, symbol) for the coder below.
+    std::vector<uint16_t> freq(counts.size(), 0);
+    std::vector<uint16_t> start(counts.size(), 0);
+    std::vector<uint32_t> table_index(used, kUnused);  // per group row, in definition order
+    uint32_t tables = 0;
+    BitWriter block;
+    block.gamma(used);
+    uint32_t previous = ~0u;
+    for (uint32_t c = 0; c < contexts_; ++c) {
+      if (row[c] == kUnused) continue;
+      block.gamma(c - previous);
+      previous = c;
+      const uint32_t g = group[row[c]];
+      if (table_index[g] != kUnused) {  // a table defined for an earlier context
+        block.gamma(table_index[g] + 2);
+        continue;
+      }
+      block.gamma(1);  // a new table follows
+      table_index[g] = tables++;
+      const size_t base = size_t{g} * alphabet_;
+      const auto [model, code] = choose_model(&counts[base], alphabet_);
+      write_model(&block, model, code);
+      const std::vector<uint32_t> f = normalize(model.weights);
+      uint32_t cumulative = 0;
+      for (size_t i = 0; i < f.size(); ++i) {
+        freq[base + model.symbols[i]] = static_cast<uint16_t>(f[i]);
+        start[base + model.symbols[i]] = static_cast<uint16_t>(cumulative);
+        cumulative += f[i];
+      }
+    }
+    out->insert(out->end(), block.bytes().begin(), block.bytes().end());
+
+    // rANS, last symbol first, bytes written backwards into one buffer that all states share:
+    // each symbol emits at most two. The decoder reads them forwards, each step's bytes where
+    // the encoder's same step wrote them.
+    std::vector<uint8_t> buffer(2 * n + 4 * kStates);
+    uint8_t* const end = buffer.data() + buffer.size();
+    uint8_t* p = end;
+    uint32_t states[kStates];
+    std::fill(states, states + kStates, kRansLow);
+    for (size_t i = n; i-- > 0;) {
+      const uint32_t q = queued_[i];
+      const size_t index = size_t{group[row[q >> kProbBits]]} * alphabet_ + (q & (kProbScale - 1));
+      const uint32_t f = freq[index];
+      const uint32_t x_max = ((kRansLow >> kProbBits) << 8) * f;  // <= 2^31
+      uint32_t& x = states[i % kStates];
+      while (x >= x_max) {
+        *--p = static_cast<uint8_t>(x);
+        x >>= 8;
+      }
+      x = ((x / f) << kProbBits) + (x % f) + start[index];
+    }
+    // The final states, little-endian, state 0 first: the decoder's initial states.
+    p -= 4 * kStates;
+    for (uint32_t k = 0; k < kStates; ++k) {
+      for (int i = 0; i < 4; ++i) p[4 * k + i] = static_cast<uint8_t>(states[k] >> (8 * i));
+    }
+    ByteWriter(out).write_varint(static_cast<uint64_t>(end - p));
+    out->insert(out->end(), p, end);
+  }
+  out->insert(out->end(), bits_.begin(), bits_.end());
+}
+
+// ---- decoder ---------------------------------------------------------------------------------
+
+OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet,
+                                                uint32_t contexts, const std::string& source,
+                                                const std::string& what) {
+  assert(alphabet >= 2 && alphabet <= kProbScale);
+  assert(contexts >= 1 && contexts <= kMaxContexts);
+  *this = SymbolDecoder();
+  const SectionErrors bad{source, what};
+
+  size_t at = in.offset();
+  uint64_t symbols = 0;
+  if (!in.read_varint(&symbols)) return bad(at, "truncated symbol count");
+  if (symbols > kMaxSymbols) {
+    return bad(at, message("% symbols declared, more than 2^32 - 1", {symbols}));
+  }
+  at = in.offset();
+  uint64_t bit_count = 0;
+  if (!in.read_varint(&bit_count)) return bad(at, "truncated raw bit count");
+  const uint64_t bit_bytes = bit_count / 8 + (bit_count % 8 != 0 ? 1 : 0);
+  if (!in.fits(bit_bytes, 1)) {
+    return bad(at, message("% raw bits declared, % bytes remain", {bit_count, in.remaining()}));
+  }
+
+  // An empty stream "ends" where the encoder started.
+  hot_.x0 = hot_.x1 = hot_.x2 = kRansLow;
+  if (symbols > 0) {
+    TableBlock tables;
+    OSTEON_RETURN_IF_ERROR(read_tables(in, alphabet, contexts, bad, &tables));
+    const std::vector<WeightTable>& models = tables.models;
+    at = in.offset();
+    uint64_t rans_bytes = 0;
+    if (!in.read_varint(&rans_bytes)) return bad(at, "truncated rANS byte count");
+    if (rans_bytes < 4 * kStates || !in.fits(rans_bytes, 1) ||
+        in.remaining() - rans_bytes < bit_bytes) {
+      return bad(at, message("% rANS bytes declared, % bytes remain for them and % raw bytes",
+                             {rans_bytes, in.remaining(), bit_bytes}));
+    }
+    // Unless a context is deterministic (its symbols cost no bits), every symbol costs bits.
+    bool deterministic = false;
+    for (const WeightTable& m : models) deterministic = deterministic || m.symbols.size() == 1;
+    if (!deterministic && symbols > kSymbolsPerByte * (rans_bytes - 3 * kStates)) {
+      return bad(at, message("% symbols cannot fit in % rANS bytes", {symbols, rans_bytes}));
+    }
+    rans_at_ = in.offset();
+    uint32_t states[kStates] = {};
+    for (uint32_t& state : states) {
+      (void)in.read_le(&state);  // rans_bytes >= 4 * kStates remain
+      if (state < kRansLow || state >= (1u << 31)) {
+        return bad(in.offset() - 4, "initial rANS state out of range");
+      }
+    }
+    static_assert(kStates == 3);
+    hot_.x0 = states[0];
+    hot_.x1 = states[1];
+    hot_.x2 = states[2];
+    data_ = in.current();
+    hot_.cur = data_;
+    end_ = data_ + (rans_bytes - 4 * kStates);
+    (void)in.skip(static_cast<size_t>(rans_bytes - 4 * kStates));
+
+    // Search tables (entropy.hpp): cumulative frequencies per context for small alphabets,
+    // entries per table and buckets per context for large ones.
+    small_ = alphabet <= kSmallAlphabet;
+    contexts_ = contexts;
+    std::vector<std::array<uint16_t, 8>> rows(small_ ? models.size() : 0);
+    std::vector<TableRef> refs(models.size());
+    size_t entries = 0;
+    for (const WeightTable& m : models) entries += m.symbols.size() + 1;
+    entries_.resize(small_ ? 0 : entries);
+    buckets_.resize(small_ ? 0 : models.size() * kBuckets);
+    uint32_t base = 0;
+    for (size_t t = 0; t < models.size(); ++t) {
+      const std::vector<uint32_t> freq = normalize(models[t].weights);
+      const std::vector<uint32_t>& present = models[t].symbols;
+      if (small_) {
+        std::array<uint32_t, 8> f{};
+        for (size_t i = 0; i < freq.size(); ++i) f[present[i]] = freq[i];
+        uint32_t cumulative = 0;
+        for (uint32_t k = 0; k < 8; ++k) {
+          rows[t][k] = static_cast<uint16_t>(cumulative);
+          cumulative += f[k];
+        }
+        continue;
+      }
+      refs[t] = {static_cast<uint32_t>(t * kBuckets), base};
+      uint32_t cumulative = 0;
+      uint32_t bucket = 0;  // buckets before it are filled
+      for (size_t i = 0; i < freq.size(); ++i) {
+        entries_[base + i] = cumulative | present[i] << 16;
+        cumulative += freq[i];
+        // Buckets whose first slot falls in [start, start + freq) belong to entry i.
+        for (; bucket < kBuckets && (bucket << (kProbBits - kBucketBits)) < cumulative; ++bucket) {
+          buckets_[t * kBuckets + bucket] = static_cast<uint16_t>(i);  // i < alphabet <= 4096
+        }
+      }
+      entries_[base + freq.size()] = kProbScale;  // the sentinel
+      base += static_cast<uint32_t>(freq.size() + 1);
+    }
+    if (small_) {
+      cum_.assign(8 * size_t{contexts}, 0);
+      for (uint32_t c = 0; c < contexts; ++c) cum_[8 * size_t{c}] = kAbsent;
+      for (const auto& [context, t] : tables.table_of) {
+        std::copy(rows[t].begin(), rows[t].end(), cum_.begin() + 8 * size_t{context});
+      }
+    } else {
+      table_of_.assign(contexts, TableRef{kNoTable, 0});
+      for (const auto& [context, t] : tables.table_of) table_of_[context] = refs[t];
+    }
+  }
+
+  bits_at_ = in.offset();
+  bits_ = in.current();
+  bit_size_ = bit_count;
+  bit_bytes_ = bit_bytes;
+  if (bit_count % 8 != 0 && (bits_[bit_bytes - 1] >> (bit_count % 8)) != 0) {
+    return bad(bits_at_ + bit_bytes - 1, "nonzero padding after the raw bits");
+  }
+  (void)in.skip(static_cast<size_t>(bit_bytes));
+  hot_.spare = static_cast<size_t>(symbols);
+  hot_.ok = true;
+  return Status::ok_status();
+}
+
+SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t context) const {
+  if (c.budget == 0) {  // refill: as many symbols as surely have two bytes each
+    c.budget = std::min<size_t>(c.spare, static_cast<size_t>(end_ - c.cur) / 2);
+    c.spare -= c.budget;
+  }
+  const uint32_t x = c.x0;
+  const uint32_t slot = x & (kProbScale - 1);
+  uint32_t symbol = 0, start = 0, freq = 0;
+  if (context >= contexts_ || !find(context, slot, &symbol, &start, &freq)) return failed(c);
+  // A symbol of the budget keeps 2 * budget <= end_ - cur (it reads at most two bytes); past the
+  // budget, one of the stream's last symbols, whose bytes are checked one by one.
+  if (c.budget > 0) {
+    --c.budget;
+  } else if (c.spare > 0) {
+    --c.spare;
+  } else {
+    return failed(c);
+  }
+  uint32_t y = freq * (x >> kProbBits) + slot - start;
+  while (y < kRansLow) {
+    if (c.cur == end_) return failed(c);
+    y = (y << 8) | *c.cur++;
+  }
+  c.x0 = c.x1;
+  c.x1 = c.x2;
+  c.x2 = y;
+  return {c, symbol};
+}
+
+// Out of line, so that get3() inlines one copy of the fast path, not four.
+void SymbolDecoder::get3_slow(Cursor& c, const uint32_t context[3], uint32_t symbol[3]) const {
+  for (int k = 0; k < 3; ++k) symbol[k] = get(c, context[k]);
+}
+
+SymbolDecoder::Step SymbolDecoder::get_bits_slow(Cursor c, int count) const {
+  if (c.bit_pos + static_cast<uint64_t>(count) > bit_size_) {
+    c.bit_pos = bit_size_;
+    return failed(c);
+  }
+  uint64_t value = 0;
+  for (int i = 0; i < count; ++i, ++c.bit_pos) {
+    value |= static_cast<uint64_t>((bits_[c.bit_pos >> 3] >> (c.bit_pos & 7)) & 1) << i;
+  }
+  return {c, value};
+}
+
+OSTEON_COLD_FUNCTION Status SymbolDecoder::finish(const std::string& source,
+                                                  const std::string& what) const {
+  const SectionErrors bad{source, what};
+  if (!hot_.ok) return bad(rans_at_, "corrupt symbol stream, or one read past its end");
+  if (symbols_left() != 0) {
+    return bad(rans_at_, message("% symbols left unread", {symbols_left()}));
+  }
+  if (hot_.cur != end_) {
+    return bad(rans_at_ + 4 * kStates + static_cast<size_t>(hot_.cur - data_),
+               message("% rANS bytes left unread", {static_cast<uint64_t>(end_ - hot_.cur)}));
+  }
+  if (hot_.x0 != kRansLow || hot_.x1 != kRansLow || hot_.x2 != kRansLow) {
+    return bad(rans_at_, "the rANS states do not end where they began");
+  }
+  if (hot_.bit_pos != bit_size_) {
+    return bad(bits_at_ + static_cast<size_t>(hot_.bit_pos / 8),
+               message("% raw bits left unread", {bit_size_ - hot_.bit_pos}));
+  }
+  return Status::ok_status();
+}
+
+}  // namespace osteon::detail

@@ -1,0 +1,300 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <algorithm>
+#include <bit>
+#include <cassert>
+#include <cstddef>
+#include <cstdint>
+#include <initializer_list>
+#include <string>
+#include <vector>
+
+#include "core/byte_io.hpp"
+#include "osteon/status.hpp"
+
+// Entropy coding for the codec's symbol streams: rANS (Duda 2013) with one frequency table per
+// context (contexts may share one), plus a raw bit stream for bits not worth modelling, in one
+// section.
+//
+// Usage (encoder): SymbolEncoder enc(alphabet, contexts); enc.put(ctx, sym) ... enc.put_bits(v, n)
+// ...; enc.append_to(&out). Usage (decoder): SymbolDecoder dec; dec.init(reader, alphabet,
+// contexts, "connectivity") ; dec.get(ctx) ... dec.get_bits(n) ...; then dec.ok() must be true.
+// The decoder must call get/get_bits in exactly the encoder's put/put_bits order with the same
+// contexts. Contexts are chosen by the caller from data both sides already have (previous
+// symbols, valences, ...), so the model adapts to each mesh: tables are measured on the stream
+// being coded and sent with it (semi-static adaptation), which keeps decoding a table lookup.
+
+// Code placement for the decoder, which WebAssembly pages download (its size is budgeted): the
+// cold functions (stream headers, frequency tables, error messages) are optimised for size where
+// the compiler can (clang, which builds the WebAssembly decoder), and the hot loops are kept out
+// of them, so that they are not optimised for size along with them.
+#if defined(__clang__)
+#define OSTEON_COLD_FUNCTION __attribute__((minsize))
+#else
+#define OSTEON_COLD_FUNCTION
+#endif
+#if defined(__GNUC__) || defined(__clang__)
+#define OSTEON_NOINLINE __attribute__((noinline))
+#else
+#define OSTEON_NOINLINE
+#endif
+
+namespace osteon::detail {
+
+/// A message with numbers in it: each '%' of `pattern` becomes the next of `numbers`, in
+/// decimal. One small function for the decoder's many error messages, where string
+/// concatenations would inline several calls each (the WebAssembly decoder's size is budgeted).
+std::string message(const char* pattern, std::initializer_list<uint64_t> numbers);
+
+class SymbolEncoder {
+ public:
+  /// alphabet: 2..4096 symbols; contexts: 1..4096.
+  SymbolEncoder(uint32_t alphabet, uint32_t contexts);
+
+  /// Queues one symbol (< alphabet) coded with context `context` (< contexts).
+  void put(uint32_t context, uint32_t symbol);
+  /// Queues `count` (0..32) raw bits of `value`, stored uncompressed in the bit stream.
+  void put_bits(uint32_t value, int count);
+
+  size_t symbol_count() const { return queued_.size(); }
+
+  /// Appends the section: its layout is in docs/FORMAT.md ("Symbol section"). Frequencies are
+  /// measured per context over the queued symbols; contexts with few symbols may share a table
+  /// where that codes smaller. O(symbols + used contexts * alphabet), plus a bounded table-merging
+  /// search (a few ms on small meshes; at most ~100 ms for thousands of sparse contexts).
+  void append_to(std::vector<uint8_t>* out) const;
+
+ private:
+  uint32_t alphabet_;
+  uint32_t contexts_;
+  std::vector<uint32_t> queued_;  // (context << 12 | symbol) per symbol, in put order
+  std::vector<uint8_t> bits_;     // raw bit stream, LSB-first
+  uint64_t bit_count_ = 0;
+};
+
+class SymbolDecoder {
+ public:
+  /// Reads a section written by SymbolEncoder::append_to with the same alphabet and contexts.
+  /// `what` names the section in messages ("connectivity", "geometry"). Errors: truncated or
+  /// inconsistent tables, counts beyond the bytes that remain.
+  /// Memory: for alphabets up to kSmallAlphabet, 16 bytes per context (64 KiB for 4096); for
+  /// larger ones 4 * kBuckets bytes per context and 4 per present symbol of each table (the
+  /// table block spends at least one bit on a symbol).
+  /// Known approximation: symbols of a single-symbol context cost no bits, so their number cannot
+  /// be bounded by the section's size (it is capped at 2^32 - 1): callers compare symbols_left()
+  /// with the count their own header promises.
+  Status init(ByteReader& in, uint32_t alphabet, uint32_t contexts, const std::string& source,
+              const std::string& what);
+
+  /// The decoder's moving parts: the rANS state, the next rANS byte, the raw-bit position. A hot
+  /// loop copies them into a local variable (cursor()), decodes through get(Cursor&, ...) and
+  /// get_bits(Cursor&, ...), and hands them back (resume()) before ok(), symbols_left() or
+  /// finish(): a local whose address never escapes stays in registers, where the decoder's own
+  /// members would be reloaded after every store the compiler cannot tell apart from them.
+  struct Cursor {
+    // The interleaved rANS states, each in [2^23, 2^31): x0 decodes the next symbol, then the
+    // states rotate (x0 <- x1 <- x2 <- x0's successor), so symbol i is state i mod 3's. Three
+    // chains of dependent steps instead of one: a step's table search and multiply overlap the
+    // next steps' (when the caller's contexts allow; see get3()). (Kept apart from each other:
+    // adjacent, the compiler rotates them as one vector, which chains every step to the last.)
+    uint32_t x0;
+    const uint8_t* cur;  // the next renormalisation byte
+    uint32_t x1;
+    // Symbols left = budget + spare. The next `budget` symbols may take get()'s fast path: each
+    // reads at most two bytes, and 2 * budget <= end_ - cur. The slow path refills it.
+    size_t budget;
+    uint32_t x2;
+    size_t spare;
+    uint64_t bit_pos;  // in the raw bits
+    bool ok;
+  };
+  Cursor cursor() const { return hot_; }
+  void resume(const Cursor& cursor) { hot_ = cursor; }
+
+  /// The next symbol of `context`. On a corrupt or exhausted stream it returns 0 and ok() turns
+  /// false; callers check ok() at least once at the end (and may check sooner to stop early).
+  /// O(1): a search of the context's cumulative frequencies (a few compares), a multiply and at
+  /// most two bytes of renormalisation.
+  uint32_t get(uint32_t context) { return get(hot_, context); }
+  uint32_t get(Cursor& cursor, uint32_t context) const;
+  /// The next three symbols, of contexts context[0..2]: the same as three get() calls, but the
+  /// three table searches and multiplies run side by side (each symbol of three has its own rANS
+  /// state), where a loop of get() calls may not overlap them.
+  void get3(Cursor& cursor, const uint32_t context[3], uint32_t symbol[3]) const;
+  /// The next `count` (0..32) raw bits.
+  uint32_t get_bits(int count) { return static_cast<uint32_t>(get_bits(hot_, count)); }
+  /// The next `count` (0..56) raw bits: bit j of the result is the j-th.
+  uint64_t get_bits(Cursor& cursor, int count) const;
+
+  bool ok() const { return hot_.ok; }
+  /// Symbols still to be decoded (for bounds: a decoder never asks for more than were coded).
+  size_t symbols_left() const { return hot_.spare + hot_.budget; }
+
+  /// After the last get/get_bits: checks that every symbol and raw bit was read, that the rANS
+  /// state is back at the encoder's initial state and that every rANS byte was consumed, which
+  /// catches most corruption that get() alone cannot see. Errors name `source`, `what` and the
+  /// byte offset of the section's rANS or raw-bit bytes.
+  Status finish(const std::string& source, const std::string& what) const;
+
+ private:
+  static constexpr uint32_t kProbBits = 12;
+  static constexpr uint32_t kProbScale = 1u << kProbBits;  // frequencies sum to this
+  static constexpr uint32_t kRansLow = 1u << 23;           // state in [kRansLow, 2^31)
+  static constexpr uint32_t kMaxContexts = 4096;
+
+  // A decode step searches the context's table for the symbol owning the slot x mod 2^12.
+  //
+  // Alphabets up to kSmallAlphabet (the connectivity's 5 CLERS symbols): each context has its own
+  // row of 8 cumulative frequencies, cum[s] = start of symbol s (cum[0] = 0, an absent symbol an
+  // empty range, cum[alphabet..7] = 2^12); the symbol is the number of cum[1..6] <= slot: six
+  // independent compares, no table of slots. A context without a table has cum[0] = kAbsent.
+  static constexpr uint32_t kSmallAlphabet = 7;
+  static constexpr uint16_t kAbsent = 0xffff;
+  //
+  // Larger alphabets: a table is one entry per present symbol, start | symbol << 16 with
+  // increasing starts, and a sentinel (start 2^12), led by kBuckets buckets that name, for each
+  // 2^12 / kBuckets slots, the entry owning the bucket's first slot (16 bits, relative to the
+  // table's first entry). From there the search steps forward while the next entry starts at or
+  // below the slot: rarely, since only the rare symbols' short ranges put several boundaries in
+  // one bucket. A context names its table by where its buckets and its entries begin (kNoTable:
+  // none); that lookup depends on the context only, so a caller whose contexts are known early
+  // keeps it off the chain of dependent steps.
+  static constexpr uint32_t kBucketBits = 6;
+  static constexpr uint32_t kBuckets = 1u << kBucketBits;
+  static constexpr uint32_t kNoTable = 0xffffffffu;
+  struct TableRef {
+    uint32_t buckets;  // index of its first bucket in buckets_, or kNoTable
+    uint32_t entries;  // index of its first entry in entries_
+  };
+
+  bool find(uint32_t context, uint32_t slot, uint32_t* symbol, uint32_t* start,
+            uint32_t* freq) const;
+  static uint32_t renormalize(uint32_t y, const uint8_t*& cur);
+
+  /// A cursor whose rANS step failed or read past the stream (for the slow paths).
+  struct Step {
+    Cursor cursor;
+    uint64_t value;
+  };
+  Step get_slow(Cursor cursor, uint32_t context) const;
+  void get3_slow(Cursor& cursor, const uint32_t context[3], uint32_t symbol[3]) const;
+  Step get_bits_slow(Cursor cursor, int count) const;
+  static Step failed(Cursor cursor) {
+    cursor.ok = false;
+    return {cursor, 0};
+  }
+
+  bool small_ = true;
+  uint32_t contexts_ = 0;
+  std::vector<uint16_t> cum_;       // small alphabets: 8 per context
+  std::vector<TableRef> table_of_;  // large alphabets: per context
+  std::vector<uint16_t> buckets_;   // large alphabets: kBuckets per table
+  std::vector<uint32_t> entries_;   // large alphabets: every table's entries and sentinel
+  Cursor hot_{kRansLow, nullptr, kRansLow, 0, kRansLow, 0, 0, false};
+  // Renormalisation bytes, read forwards: data_ is the first (after the initial state).
+  const uint8_t* data_ = nullptr;
+  const uint8_t* end_ = nullptr;
+  const uint8_t* bits_ = nullptr;
+  uint64_t bit_size_ = 0;   // in bits
+  uint64_t bit_bytes_ = 0;  // (bit_size_ + 7) / 8
+  size_t rans_at_ = 0;      // byte offsets in the reader, for messages
+  size_t bits_at_ = 0;
+};
+
+// The hot paths, inline: decoding a mesh calls them a few million times. Well-predicted branches
+// send the rare cases (the stream's last bytes, an exhausted or corrupt stream, an absent
+// context) to the checked slow paths; the common case is a short search, a multiply and a
+// byte-wise renormalisation.
+
+inline bool SymbolDecoder::find(uint32_t context, uint32_t slot, uint32_t* symbol, uint32_t* start,
+                                uint32_t* freq) const {
+  if (small_) {
+    const uint16_t* cum = &cum_[8 * size_t{context}];
+    if (cum[0] == kAbsent) [[unlikely]]
+      return false;
+    uint32_t s = 0;
+    for (int i = 1; i < 7; ++i) s += cum[i] <= slot ? 1 : 0;
+    *symbol = s;
+    *start = cum[s];
+    *freq = cum[s + 1] - cum[s];
+    return true;
+  }
+  const TableRef table = table_of_[context];
+  if (table.buckets == kNoTable) [[unlikely]]
+    return false;
+  const uint32_t* e = entries_.data() + table.entries;
+  uint32_t i = buckets_[table.buckets + (slot >> (kProbBits - kBucketBits))];
+  while ((e[i + 1] & 0xffff) <= slot) ++i;
+  *symbol = e[i] >> 16;
+  *start = e[i] & 0xffff;
+  *freq = (e[i + 1] & 0xffff) - *start;
+  return true;
+}
+
+inline uint32_t SymbolDecoder::renormalize(uint32_t y, const uint8_t*& cur) {
+  // Without a branch (whether a step reads a byte is a coin toss the branch predictor loses):
+  // y >= 2^11 needs (y < 2^23) + (y < 2^15) bytes, and the budget guarantees that two are
+  // there. (The shifts are those comparisons for y < 2^31, spelled so that the compiler does
+  // not turn them back into a branch.)
+  const uint32_t n = ((y - kRansLow) >> 31 << 3) + ((y - (kRansLow >> 8)) >> 31 << 3);
+  const uint32_t bytes = uint32_t{cur[0]} << 8 | cur[1];
+  cur += n >> 3;
+  return static_cast<uint32_t>(uint64_t{y} << n | bytes >> (16 - n));
+}
+
+inline uint32_t SymbolDecoder::get(Cursor& c, uint32_t context) const {
+  assert(context < kMaxContexts);
+  const uint32_t x = c.x0;
+  const uint32_t slot = x & (kProbScale - 1);
+  uint32_t symbol, start, freq;
+  if (c.budget == 0 || context >= contexts_ || !find(context, slot, &symbol, &start, &freq))
+      [[unlikely]] {
+    const Step step = get_slow(c, context);
+    c = step.cursor;
+    return static_cast<uint32_t>(step.value);
+  }
+  --c.budget;
+  const uint32_t y = freq * (x >> kProbBits) + slot - start;
+  c.x0 = c.x1;
+  c.x1 = c.x2;
+  c.x2 = renormalize(y, c.cur);
+  return symbol;
+}
+
+inline void SymbolDecoder::get3(Cursor& c, const uint32_t context[3], uint32_t symbol[3]) const {
+  const uint32_t slot[3] = {c.x0 & (kProbScale - 1), c.x1 & (kProbScale - 1),
+                            c.x2 & (kProbScale - 1)};
+  uint32_t start[3], freq[3];
+  if (c.budget < 3 || std::max({context[0], context[1], context[2]}) >= contexts_ ||
+      !find(context[0], slot[0], &symbol[0], &start[0], &freq[0]) ||
+      !find(context[1], slot[1], &symbol[1], &start[1], &freq[1]) ||
+      !find(context[2], slot[2], &symbol[2], &start[2], &freq[2])) [[unlikely]] {
+    get3_slow(c, context, symbol);
+    return;
+  }
+  c.budget -= 3;
+  // The three steps' states are x0, x1 and x2; after three steps each state is back in place.
+  const uint32_t y0 = freq[0] * (c.x0 >> kProbBits) + slot[0] - start[0];
+  const uint32_t y1 = freq[1] * (c.x1 >> kProbBits) + slot[1] - start[1];
+  const uint32_t y2 = freq[2] * (c.x2 >> kProbBits) + slot[2] - start[2];
+  c.x0 = renormalize(y0, c.cur);
+  c.x1 = renormalize(y1, c.cur);
+  c.x2 = renormalize(y2, c.cur);
+}
+
+inline uint64_t SymbolDecoder::get_bits(Cursor& c, int count) const {
+  assert(count >= 0 && count <= 56);
+  const uint64_t byte = c.bit_pos >> 3;
+  if (c.bit_pos + static_cast<uint64_t>(count) > bit_size_ || byte + 8 > bit_bytes_) [[unlikely]] {
+    const Step step = get_bits_slow(c, count);
+    c = step.cursor;
+    return step.value;
+  }
+  const uint64_t word = ByteReader::load<uint64_t>(bits_ + byte, std::endian::little);
+  const uint64_t value = (word >> (c.bit_pos & 7)) & ((uint64_t{1} << count) - 1);
+  c.bit_pos += static_cast<uint64_t>(count);
+  return value;
+}
+
+}  // namespace osteon::detail

@@ -1,0 +1,45 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/byte_io.hpp"
+#include "codec/connectivity.hpp"
+#include "osteon/codec.hpp"
+#include "osteon/mesh.hpp"
+#include "osteon/status.hpp"
+
+// The geometry stage of the codec (src/quantize.cpp, src/parallelogram.cpp): positions on a grid,
+// predicted in vertex order from already-decoded neighbours, residuals entropy-coded. Both sides
+// run on the same decoded connectivity (connectivity.hpp's NewestTriangles: each triangle filed
+// under its newest vertex, with the vertex across from it), so the encoder needs nothing from
+// the connectivity coder beyond what its decoder hands the geometry decoder, and the vertex
+// order.
+
+namespace osteon::detail {
+
+/// Quantized coordinates, one int32 triple per vertex.
+struct QuantizedPositions {
+  std::vector<int32_t> xyz;  ///< 3 per vertex
+};
+
+QuantizedPositions quantize(const std::vector<Vec3>& positions, const QuantizationGrid& grid);
+std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid& grid);
+
+/// Encodes quantized positions (in decoded vertex order) given the decoded triangles' newest
+/// triangles: vertices in id order are predicted by the average of all parallelograms available
+/// across already-decoded triangles (the paper's eq. (1)), else by decoded neighbours, else by
+/// the previous vertex; residuals are entropy-coded. Appends the geometry section
+/// (docs/FORMAT.md) to `out`. O(V + T).
+void encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
+                     std::vector<uint8_t>* out);
+/// Decodes what encode_geometry wrote, for `vertex_count` vertices. `newest` is
+/// decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
+/// each neighbour before the vertex it is filed under, each o too or kNoVertexId). Errors name
+/// `source` and the byte offset. O(V + T); allocates O(V) beyond the result.
+Result<QuantizedPositions> decode_geometry(ByteReader& in, const NewestTriangles& newest,
+                                           uint32_t vertex_count, const std::string& source);
+
+}  // namespace osteon::detail

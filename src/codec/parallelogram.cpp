@@ -1,0 +1,365 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+
+#include "codec/connectivity.hpp"
+#include "codec/entropy.hpp"
+#include "codec/geometry.hpp"
+#include "codec/residual.hpp"
+
+// Based on: the parallelogram rule (Touma & Gotsman 1998) averaged over every parallelogram that
+// is available when a vertex is decoded (Zhou, Jia & Su 2018, eq. (1): "three-parallelogram"
+// prediction; Cohen-Or et al.'s multi-way prediction), with residuals coded as an Elias-gamma-like
+// magnitude bucket (entropy-coded with context) plus raw mantissa bits (Draco and Corto code
+// their residuals the same way).
+//
+//            o
+//           / \          pred(v) = n + p - o for each triangle (v, n, p) whose other two
+//          /   \         vertices come before v (v is its newest vertex), with o the vertex
+//         p-----n        across the edge (n, p) in the neighbouring triangle, when o comes
+//          \   /         before v too; the prediction is the rounded mean of all such
+//           \ /          parallelograms.
+//            v
+//
+// Speed: every triangle has exactly one newest vertex, so grouping each triangle (n, p, o) under
+// its newest vertex (NewestTriangles, which the connectivity decoder builds as it writes the
+// triangles) gives every vertex its parallelograms in one contiguous run: the decoding loop reads
+// about two 12-byte entries a vertex, with no search and no walk around the vertex.
+
+namespace osteon::detail {
+
+namespace {
+
+// How a vertex was predicted; the first part of the residual's coding context.
+enum PredictionKind : uint32_t {
+  kMultiParallelogram = 0,  // two or more parallelograms averaged
+  kParallelogram = 1,       // exactly one
+  kNeighbour = 2,           // edge midpoints, or a decoded neighbour
+  kNone = 3,                // nothing decoded around it: the previous vertex, or the origin
+  kKinds = 4,
+};
+
+// Which parallelograms a vertex uses. The encoder measures both on the mesh and keeps the
+// cheaper: the mean of all of them wins on smooth surfaces (hip_mcs.ply at 14 bits: 12.6 against
+// 13.7 bits per vertex), the first one on raw marching-cubes surfaces, whose coordinates sit on
+// the voxel lattice that averaging smears (skull_mc.ply: 15.1 against 15.4).
+enum PredictionMode : uint8_t {
+  kAverageAll = 0,  // the paper's multi-parallelogram mean
+  kFirstOnly = 1,   // the first parallelogram in triangle order
+  kModes = 2,
+};
+
+/// The rounded mean sum / count: floor((2 * sum + count) / (2 * count)), for 1 <= count < 2^29
+/// and |sum| < 2^33 * count (count parallelograms of int32 coordinates). One unsigned division,
+/// no fix-up: adding 2^34 * (2 * count) makes the dividend positive (and < 2^64), so the
+/// division truncates to the floor, 2^34 too high.
+inline int64_t rounded_mean(int64_t sum, int64_t count) {
+  constexpr int kBiasBits = 34;
+  const uint64_t divisor = 2 * static_cast<uint64_t>(count);
+  const uint64_t dividend = static_cast<uint64_t>(2 * sum + count) + (divisor << kBiasBits);
+  return static_cast<int64_t>(dividend / divisor) - (int64_t{1} << kBiasBits);
+}
+
+/// floor(x / d) for 2 <= d <= kMaxSmallDivisor and x <= kMaxSmallDividend by a multiply and a
+/// shift (the neighbours' mean symbol sits on the entropy decoder's critical path, where a
+/// division's latency shows); kReciprocal[d] = ceil(2^16 / d) is exact there (checked below).
+constexpr uint32_t kMaxSmallDivisor = 16;
+constexpr uint32_t kMaxSmallDividend = 8 * 2 * 127 + 8;  // 8 triangles' symbol sums, rounded
+constexpr auto kReciprocal = [] {
+  std::array<uint32_t, kMaxSmallDivisor + 1> r{};
+  for (uint32_t d = 1; d <= kMaxSmallDivisor; ++d) r[d] = ((1u << 16) + d - 1) / d;
+  return r;
+}();
+constexpr bool reciprocals_are_exact() {
+  for (uint32_t d = 2; d <= kMaxSmallDivisor; ++d) {
+    for (uint32_t x = 0; x <= kMaxSmallDividend; ++x) {
+      if ((x * kReciprocal[d]) >> 16 != x / d) return false;
+    }
+  }
+  return true;
+}
+static_assert(reciprocals_are_exact());
+
+/// Per residual symbol (residual.hpp): how many raw bits follow it, and the zigzagged value's
+/// bits above them (the value itself below 4), so that value = leading | raw bits.
+constexpr auto kRawBits = [] {
+  std::array<uint8_t, kResidualSymbols> bits{};
+  for (uint32_t s = 4; s < kResidualSymbols; ++s) bits[s] = static_cast<uint8_t>((s - 4) / 2 + 1);
+  return bits;
+}();
+constexpr auto kLeadingBits = [] {
+  std::array<uint64_t, kResidualSymbols> lead{};
+  for (uint32_t s = 0; s < kResidualSymbols; ++s) {
+    lead[s] = s < 4 ? s : (uint64_t{2} | ((s - 4) & 1)) << kRawBits[s];
+  }
+  return lead;
+}();
+
+/// A decoded vertex's three residual symbols (each < 128) packed in 11-bit lanes, so that adding
+/// up to 16 vertices' symbols adds each axis in its own lane.
+constexpr int kLaneBits = 11;
+constexpr uint32_t kLaneMask = (1u << kLaneBits) - 1;
+inline uint32_t pack_symbols(uint32_t s0, uint32_t s1, uint32_t s2) {
+  return s0 | s1 << kLaneBits | s2 << (2 * kLaneBits);
+}
+inline uint32_t lane(uint64_t lanes, int axis) {
+  return static_cast<uint32_t>(lanes >> (kLaneBits * axis)) & kLaneMask;
+}
+
+struct Prediction {
+  PredictionKind kind;
+  uint32_t local[3];  // per axis: the residual magnitude around the vertex, for the context
+  int64_t xyz[3];
+};
+
+// The prediction of vertex v from the vertices before it; the encoder and the decoder call this
+// with the same records for vertices < v, so they agree bit for bit.
+inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
+                          const uint32_t* symbols, PredictionMode mode) {
+  Prediction out;
+  const NewestTriangle* e = nt.entries.data() + nt.first[v];
+  const NewestTriangle* const end = nt.entries.data() + nt.first[v + 1];
+  if (e == end) [[unlikely]] {
+    // No triangle whose other vertices are all decoded: a decoded neighbour, else the previous
+    // vertex (often a neighbour too: vertices are numbered along the decoded faces).
+    const uint32_t u = nt.neighbour[v];
+    out.kind = u != kNoVertexId ? kNeighbour : kNone;
+    const uint32_t w = u != kNoVertexId ? u : v - 1;
+    for (int k = 0; k < 3; ++k) {
+      out.local[k] = u != kNoVertexId ? lane(symbols[u], k) : 0;
+      out.xyz[k] = v > 0 ? xyz[3 * size_t{w} + k] : 0;
+    }
+    return out;
+  }
+  int64_t sum[3] = {0, 0, 0};  // parallelograms
+  int64_t mid[3] = {0, 0, 0};  // n + p, for the midpoints when there is no parallelogram
+  uint64_t lanes = 0;          // the neighbours' symbols, per axis
+  int64_t count = 0;
+  const uint32_t entries = static_cast<uint32_t>(end - e);
+  for (; e != end; ++e) {
+    const int32_t* n = xyz + 3 * size_t{e->n};
+    const int32_t* p = xyz + 3 * size_t{e->p};
+    lanes += uint64_t{symbols[e->n]} + symbols[e->p];
+    // Without a branch: an absent o adds nothing (and reads n, which exists).
+    const bool use = e->o != kNoVertexId && (mode == kAverageAll || count == 0);
+    const int32_t* o = xyz + 3 * size_t{use ? e->o : e->n};
+    const int64_t w = use ? 1 : 0;
+    for (int k = 0; k < 3; ++k) {
+      const int64_t np = int64_t{n[k]} + p[k];
+      mid[k] += np;
+      sum[k] += w * (np - o[k]);
+    }
+    count += w;
+  }
+  // Per axis, the rounded mean of the 2 * entries neighbours' symbols.
+  if (entries <= kMaxSmallDivisor / 2) [[likely]] {
+    for (int k = 0; k < 3; ++k) {
+      out.local[k] = ((lane(lanes, k) + entries) * kReciprocal[2 * entries]) >> 16;
+    }
+  } else {
+    // Lanes may overflow into each other beyond 16 entries: add them up again, apart.
+    uint32_t sums[3] = {0, 0, 0};
+    for (const NewestTriangle* f = end - entries; f != end; ++f) {
+      for (int k = 0; k < 3; ++k) sums[k] += lane(symbols[f->n], k) + lane(symbols[f->p], k);
+    }
+    for (int k = 0; k < 3; ++k) out.local[k] = (sums[k] + entries) / (2 * entries);
+  }
+  if (count > 0) {
+    out.kind = count > 1 ? kMultiParallelogram : kParallelogram;
+    for (int k = 0; k < 3; ++k) out.xyz[k] = rounded_mean(sum[k], count);
+  } else {
+    out.kind = kNeighbour;
+    for (int k = 0; k < 3; ++k) out.xyz[k] = rounded_mean(mid[k], 2 * int64_t{entries});
+  }
+  return out;
+}
+
+// Context model, per axis: the prediction kind; the residual magnitude around the vertex on that
+// axis (the mean of its decoded neighbours' symbols: surfaces are locally smooth or locally
+// rough); and the previous vertex's symbol on that axis (marching-cubes surfaces are rough along
+// some axes and not others, and neighbouring ids are close on the surface). Nothing in a
+// vertex's contexts depends on its own symbols, so its three symbols decode side by side.
+struct ContextModel {
+  uint32_t activity_classes;
+  uint32_t previous_classes;
+  // The context's three terms, looked up: kind, local (< 128) and previous symbol (< 128).
+  std::array<uint16_t, kKinds> kind_term;
+  std::array<uint16_t, 128> local_term;
+  std::array<uint16_t, 128> previous_term;
+
+  explicit ContextModel(uint32_t vertex_count)
+      : activity_classes(vertex_count < 2000 ? 2 : (vertex_count < 50000 ? 6 : 10)),
+        previous_classes(vertex_count < 2000 ? 1 : 6) {
+    for (uint32_t k = 0; k < kKinds; ++k) {
+      kind_term[k] = static_cast<uint16_t>(k * activity_classes * previous_classes);
+    }
+    for (uint32_t i = 0; i < 128; ++i) {
+      local_term[i] = static_cast<uint16_t>(std::min(i, activity_classes - 1) * previous_classes);
+      previous_term[i] = static_cast<uint16_t>(std::min(i >> 1, previous_classes - 1));
+    }
+  }
+
+  uint32_t contexts() const { return kKinds * activity_classes * previous_classes; }
+  /// (kind * activity_classes + min(local, activity_classes - 1)) * previous_classes
+  ///   + min(previous_symbol >> 1, previous_classes - 1); local, previous_symbol < 128.
+  uint32_t context(PredictionKind kind, uint32_t local, uint32_t previous_symbol) const {
+    return kind_term[kind] + local_term[local & 127] + previous_term[previous_symbol & 127];
+  }
+};
+
+// Bits a symbol stream would cost under the context model, from its histogram (the table bytes
+// are the same order of magnitude for both modes and left out).
+double estimated_bits(const std::vector<uint32_t>& histogram, uint32_t contexts,
+                      uint64_t raw_bits) {
+  double bits = double(raw_bits);
+  for (uint32_t c = 0; c < contexts; ++c) {
+    const uint32_t* h = histogram.data() + size_t{c} * kResidualSymbols;
+    double total = 0;
+    for (uint32_t s = 0; s < kResidualSymbols; ++s) total += h[s];
+    for (uint32_t s = 0; s < kResidualSymbols; ++s) {
+      if (h[s] != 0) bits += h[s] * std::log2(total / h[s]);
+    }
+  }
+  return bits;
+}
+
+// Runs the encoder's prediction loop, handing each (context, symbol, z) to `sink`.
+template <class Sink>
+void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
+                 PredictionMode mode, Sink&& sink) {
+  const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
+  std::vector<uint32_t> symbols(vertex_count);
+  uint32_t previous[3] = {0, 0, 0};
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    const Prediction pred = predict(v, nt, q.xyz.data(), symbols.data(), mode);
+    uint32_t symbol[3];
+    for (int k = 0; k < 3; ++k) {
+      const uint64_t z = zigzag(int64_t{q.xyz[3 * size_t{v} + k]} - pred.xyz[k]);
+      symbol[k] = residual_symbol(z);
+      sink(model.context(pred.kind, pred.local[k], previous[k]), symbol[k], z);
+      previous[k] = symbol[k];
+    }
+    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
+  }
+}
+
+OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
+                                   PredictionMode mode, SymbolDecoder& dec, ByteReader& in,
+                                   const std::string& source, QuantizedPositions* q) {
+  const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
+  // Written before being read, so not cleared.
+  const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
+  int32_t* const xyz = q->xyz.data();
+  SymbolDecoder::Cursor cursor = dec.cursor();  // in registers through the loop
+  uint32_t previous[3] = {0, 0, 0};
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode);
+    const uint32_t context[3] = {model.context(pred.kind, pred.local[0], previous[0]),
+                                 model.context(pred.kind, pred.local[1], previous[1]),
+                                 model.context(pred.kind, pred.local[2], previous[2])};
+    uint32_t symbol[3];
+    dec.get3(cursor, context, symbol);
+    // The raw bits (get_residual()), without a branch on whether there are any (a coin toss the
+    // branch predictor loses), the three axes' in one read where they fit in 56 bits (symbols
+    // below 40 each: nearly always).
+    const uint32_t bits[3] = {kRawBits[symbol[0]], kRawBits[symbol[1]], kRawBits[symbol[2]]};
+    uint64_t rest[3];
+    if (bits[0] + bits[1] + bits[2] <= 56) [[likely]] {
+      const uint64_t all = dec.get_bits(cursor, static_cast<int>(bits[0] + bits[1] + bits[2]));
+      rest[0] = all & ((uint64_t{1} << bits[0]) - 1);
+      rest[1] = (all >> bits[0]) & ((uint64_t{1} << bits[1]) - 1);
+      rest[2] = all >> (bits[0] + bits[1]);
+    } else {
+      for (int k = 0; k < 3; ++k) {
+        rest[k] = bits[k] > 32 ? dec.get_bits(cursor, 32) |
+                                     dec.get_bits(cursor, static_cast<int>(bits[k]) - 32) << 32
+                               : dec.get_bits(cursor, static_cast<int>(bits[k]));
+      }
+    }
+    bool in_range = true;
+    for (int k = 0; k < 3; ++k) {
+      const int64_t value = pred.xyz[k] + unzigzag(kLeadingBits[symbol[k]] | rest[k]);
+      in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
+      xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
+      previous[k] = symbol[k];
+    }
+    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
+    if (!cursor.ok || !in_range) [[unlikely]] {
+      return error(ErrorCode::kInvalidData, source,
+                   message("geometry: corrupt residual for vertex %", {v}), at_byte(in.offset()));
+    }
+  }
+  dec.resume(cursor);
+  return Status::ok_status();
+}
+
+}  // namespace
+
+void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q,
+                     std::vector<uint8_t>* out) {
+  const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
+  assert(nt.first.size() == size_t{vertex_count} + 1 && nt.neighbour.size() == vertex_count);
+  const ContextModel model(vertex_count);
+
+  // Measure both prediction modes, then code with the cheaper one.
+  PredictionMode best = kAverageAll;
+  double best_bits = 0;
+  for (uint32_t m = 0; m < kModes; ++m) {
+    std::vector<uint32_t> histogram(size_t{model.contexts()} * kResidualSymbols, 0);
+    uint64_t raw_bits = 0;
+    auto count = [&](uint32_t context, uint32_t symbol, uint64_t z) {
+      ++histogram[size_t{context} * kResidualSymbols + symbol];
+      if (symbol >= 4) raw_bits += bit_length(z) - 2;
+    };
+    encode_loop(nt, q, model, PredictionMode(m), count);
+    const double bits = estimated_bits(histogram, model.contexts(), raw_bits);
+    if (m == 0 || bits < best_bits) {
+      best = PredictionMode(m);
+      best_bits = bits;
+    }
+  }
+
+  out->push_back(best);
+  SymbolEncoder enc(kResidualSymbols, model.contexts());
+  auto put = [&](uint32_t context, uint32_t symbol, uint64_t z) {
+    enc.put(context, symbol);
+    put_residual_bits(enc, symbol, z);
+  };
+  encode_loop(nt, q, model, best, put);
+  enc.append_to(out);
+}
+
+OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
+                                                                const NewestTriangles& nt,
+                                                                uint32_t vertex_count,
+                                                                const std::string& source) {
+  if (nt.first.size() != size_t{vertex_count} + 1 || nt.neighbour.size() != vertex_count) {
+    return error(ErrorCode::kInvalidArgument, source,
+                 message("geometry: the connectivity does not have % vertices", {vertex_count}));
+  }
+  uint8_t mode = 0;
+  if (!in.read_le(&mode) || mode >= kModes) {
+    return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
+                 at_byte(in.offset()));
+  }
+  const ContextModel model(vertex_count);
+  SymbolDecoder dec;
+  OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols, model.contexts(), source, "geometry"));
+  if (dec.symbols_left() != 3 * uint64_t{vertex_count}) {
+    return error(
+        ErrorCode::kInvalidData, source,
+        message("geometry: % residual symbols for % vertices", {dec.symbols_left(), vertex_count}),
+        at_byte(in.offset()));
+  }
+  QuantizedPositions q;
+  q.xyz.resize(size_t{vertex_count} * 3);
+  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode), dec, in, source, &q));
+  OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
+  return q;
+}
+
+}  // namespace osteon::detail

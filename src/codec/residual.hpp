@@ -1,0 +1,56 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <cstdint>
+
+#include "codec/entropy.hpp"
+
+// How the codec codes a signed prediction residual: zigzag it, send the value itself below 4,
+// else its bit length and the bit below the leading one as one entropy-coded symbol (residuals
+// are Laplacian, so the lower half of each power-of-two bucket is likelier), then the remaining
+// bits raw. Shared by the geometry and normal coders.
+
+namespace osteon::detail {
+
+/// Symbols a residual below 2^34 (zigzagged) can take.
+constexpr uint32_t kResidualSymbols = 68;
+
+inline uint64_t zigzag(int64_t r) {
+  return (uint64_t(r) << 1) ^ uint64_t(r >> 63);
+}
+inline int64_t unzigzag(uint64_t z) {
+  return int64_t(z >> 1) ^ -int64_t(z & 1);
+}
+inline uint32_t bit_length(uint64_t z) {
+  return z == 0 ? 0 : 64 - uint32_t(__builtin_clzll(z));
+}
+
+inline uint32_t residual_symbol(uint64_t z) {
+  if (z < 4) return uint32_t(z);
+  uint32_t b = bit_length(z);  // >= 3
+  return 4 + 2 * (b - 3) + uint32_t((z >> (b - 2)) & 1);
+}
+
+/// The raw bits that follow `symbol` for the zigzagged value z.
+inline void put_residual_bits(SymbolEncoder& enc, uint32_t symbol, uint64_t z) {
+  if (symbol < 4) return;
+  int bits = int(bit_length(z)) - 2;
+  uint64_t rest = z & ((uint64_t{1} << bits) - 1);
+  if (bits > 32) {
+    enc.put_bits(uint32_t(rest & 0xffffffffu), 32);
+    enc.put_bits(uint32_t(rest >> 32), bits - 32);
+  } else {
+    enc.put_bits(uint32_t(rest), bits);
+  }
+}
+
+/// The zigzagged value of `symbol` and its raw bits.
+inline uint64_t get_residual(SymbolDecoder& dec, uint32_t symbol) {
+  if (symbol < 4) return symbol;
+  int bits = int(symbol - 4) / 2 + 1;  // bit length - 2
+  uint64_t rest = bits > 32 ? (dec.get_bits(32) | (uint64_t{dec.get_bits(bits - 32)} << 32))
+                            : dec.get_bits(bits);
+  return ((uint64_t{2} | ((symbol - 4) & 1)) << bits) | rest;
+}
+
+}  // namespace osteon::detail

@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: Apache-2.0
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "osteon/status.hpp"
+
+// What pack's stages share inside the package module.
+
+namespace osteon::detail {
+
+/// The file stem of a part name or path: the last path component without its extension.
+/// "bones/FJ43_x.glb" -> "FJ43_x".
+std::string stem_of(const std::string& name);
+
+/// A part's display name and group, from a names file.
+struct DisplayName {
+  std::string name;
+  std::string group;
+};
+
+/// Reads a names file (docs/FORMAT.md "Names file"): a JSON array of objects {filename|file|name,
+/// label|display_name, group}, a JSON object {stem: "display name"} or {stem: {display_name|label,
+/// group}}, or a CSV of stem,display_name[,group] lines (a first line starting with "file" or
+/// "stem" is a header). Keys are file stems. Errors: read_file's; kInvalidData for JSON that does
+/// not parse or a CSV line of fewer than 2 fields.
+Result<std::map<std::string, DisplayName>> read_names(const std::string& path);
+
+}  // namespace osteon::detail

@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
+# Writes the bad_*.json golden manifests and expected.json from the valid_*.json ones (README.md):
+# each bad file is valid_named_subset.json with one field broken, written back in the packer's own
+# form (compact, keys sorted, numbers as they were), so it differs from the valid file in that
+# field alone. Run it after regenerating the valid files:
+#
+#   python3 tests/data/manifests/make_bad.py
+
+import json
+import os
+
+here = os.path.dirname(os.path.abspath(__file__))
+
+
+def load(name):
+    with open(os.path.join(here, name), encoding="utf-8") as f:
+        return json.load(f)
+
+
+def dump(name, manifest):
+    text = json.dumps(manifest, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    with open(os.path.join(here, name), "w", encoding="utf-8") as f:
+        f.write(text + "\n")
+
+
+def swap_box(box):
+    box["min"], box["max"] = box["max"], box["min"]
+
+
+base = load("valid_named_subset.json")
+chunk1 = base["chunks"][1]["file"]
+assert base["components"][2]["chunk"] == 1 and base["components"][2]["offset"] + base["components"][2]["bytes"] <= base["chunks"][1]["bytes"]
+
+# name -> (the JSON path the error must name, the edit). JSON has no NaN or Infinity, and a number
+# too large for a double (1e999) is an error of the JSON reader itself (nlohmann::json refuses it,
+# JavaScript reads Infinity), so null stands in for a non-finite number.
+bad = {
+    "bad_format.json": ("format", lambda m: m.update(format="osteon-mesh")),
+    "bad_version.json": ("version", lambda m: m.update(version=1)),
+    "bad_unit.json": ("unit", lambda m: m.update(unit="furlong")),
+    "bad_missing_chunks.json": ("chunks", lambda m: m.pop("chunks")),
+    "bad_instances_not_array.json": ("instances", lambda m: m.update(instances={})),
+    "bad_bounds_min_above_max.json": ("bounds", lambda m: swap_box(m["bounds"])),
+    "bad_chunk_file_traversal.json": ("chunks[1].file", lambda m: m["chunks"][1].update(file="../" + chunk1)),
+    "bad_chunk_file_absolute.json": ("chunks[0].file", lambda m: m["chunks"][0].update(file="/" + m["chunks"][0]["file"])),
+    "bad_chunk_file_extension.json": ("chunks[1].file", lambda m: m["chunks"][1].update(file=chunk1[:-len(".ostc")] + ".ostm")),
+    "bad_chunk_file_duplicate.json": ("chunks[3].file", lambda m: m["chunks"][3].update(file=m["chunks"][0]["file"])),
+    "bad_part_id.json": ("parts[1].id", lambda m: m["parts"][1].update(id=0)),
+    "bad_part_name_number.json": ("parts[2].name", lambda m: m["parts"][2].update(name=7)),
+    "bad_part_prototype_out_of_range.json": ("parts[3].prototype", lambda m: m["parts"][3].update(prototype=len(m["parts"]))),
+    "bad_component_duplicate_id.json": ("components[3].id", lambda m: m["components"][3].update(id=m["components"][2]["id"])),
+    "bad_component_chunk_out_of_range.json": ("components[1].chunk", lambda m: m["components"][1].update(chunk=len(m["chunks"]))),
+    "bad_component_offset_string.json": ("components[2].offset", lambda m: m["components"][2].update(offset=str(m["components"][2]["offset"]))),
+    # offset + bytes beyond the chunk's bytes: named at .bytes (the range's end is what overflows).
+    "bad_component_range_outside_chunk.json": ("components[2].bytes", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"] - m["components"][2]["bytes"] + 1)),
+    # An offset at the chunk's end (an empty range there, then its bytes) is named at .bytes too.
+    "bad_component_offset_at_chunk_end.json": ("components[2].bytes", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"])),
+    "bad_component_bounds_null.json": ("components[4].bounds.max[1]", lambda m: m["components"][4]["bounds"]["max"].__setitem__(1, None)),
+    "bad_component_bounds_min_above_max.json": ("components[5].bounds", lambda m: swap_box(m["components"][5]["bounds"])),
+    "bad_instance_part_out_of_range.json": ("instances[5].part", lambda m: m["instances"][5].update(part=len(m["parts"]))),
+    "bad_instance_unknown_component.json": ("instances[3].component", lambda m: m["instances"][3].update(component="c99")),
+    "bad_instance_matrix_15.json": ("instances[1].matrix", lambda m: m["instances"][1]["matrix"].pop()),
+    "bad_instance_matrix_string.json": ("instances[1].matrix[12]", lambda m: m["instances"][1]["matrix"].__setitem__(12, "0")),
+    "bad_instance_matrix_singular.json": ("instances[0].matrix", lambda m: m["instances"][0].update(matrix=[0.0] * 16)),
+    "bad_stream_order_unknown.json": ("stream_order[3]", lambda m: m["stream_order"].__setitem__(3, "c99")),
+    # A repeat replaces the last entry, so that component is missing too: entries are checked
+    # first, in order, and the duplicate is named.
+    "bad_stream_order_duplicate.json": ("stream_order[6]", lambda m: m["stream_order"].__setitem__(6, m["stream_order"][0])),
+    "bad_stream_order_missing.json": ("stream_order", lambda m: m["stream_order"].pop()),
+}
+
+expected = {}
+for name in sorted(f for f in os.listdir(here) if f.startswith("valid_") and f.endswith(".json")):
+    m = load(name)
+    expected[name] = {key: len(m[key]) for key in ("parts", "components", "instances", "chunks")}
+for name, (path, edit) in bad.items():
+    m = json.loads(json.dumps(base))
+    edit(m)
+    dump(name, m)
+    expected[name] = {"error": path}
+with open(os.path.join(here, "expected.json"), "w", encoding="utf-8") as f:
+    json.dump(dict(sorted(expected.items())), f, indent=2)
+    f.write("\n")
