@@ -215,17 +215,16 @@ bool parse_components(const json& in, Checker& check, Manifest* out,
     }
     const uint64_t chunk_bytes = out->chunks[component.chunk].bytes;
     const std::string of_chunk =
-        " of the " + std::to_string(chunk_bytes) + " bytes of " + at("chunks", component.chunk);
-    if (component.offset >= chunk_bytes) {
+        " the " + std::to_string(chunk_bytes) + " bytes of " + at("chunks", component.chunk);
+    if (component.offset > chunk_bytes) {
       return check.fail(where + ".offset",
-                        "byte " + std::to_string(component.offset) + " lies beyond the end" +
-                            of_chunk);
+                        "byte " + std::to_string(component.offset) + " lies beyond" + of_chunk);
     }
     if (component.bytes == 0) return check.fail(where + ".bytes", "expected at least one byte");
     if (component.bytes > chunk_bytes - component.offset) {
-      return check.fail(where + ".bytes", "the range from byte " +
-                                              std::to_string(component.offset) +
-                                              " runs past the end" + of_chunk);
+      return check.fail(where + ".bytes", "bytes " + std::to_string(component.offset) + "-" +
+                                              std::to_string(component.offset + component.bytes) +
+                                              " lie beyond" + of_chunk);
     }
     if (!check.count(Checker::member(c, "triangles"), where + ".triangles",
                      &component.triangles) ||

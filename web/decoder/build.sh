@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# Builds the WebAssembly decoder: the C++ decoder's own sources (the same files the native library
+# Builds the WebAssembly decoder: the core layer (osteon_core, the same files the native library
 # compiles) plus the C ABI in osteon_decoder.cpp, with Debian 12's emscripten (apt-get install
 # emscripten), into a standalone module with an explicit export list and no Emscripten JavaScript.
 # Output: build/wasm/{osteon_decoder.wasm, osteon_decoder.mjs, worker.mjs, pool.mjs}, the files a
-# web page serves side by side. Prints the download size (gzip -9) the issue budgets at 25 KB.
+# web page serves side by side. Prints the download size (gzip -9), budgeted at 25 KB.
 #
 #   bash web/decoder/build.sh          (or: cd web && npm run build:decoder)
 #   JOBS=2 OUT=build/wasm ...          parallel compiles, output folder
@@ -23,50 +23,20 @@ fi
 # (/usr/share/emscripten/cache, FROZEN_CACHE): nothing is downloaded or built, nothing written.
 export NODE_PATH="${NODE_PATH:-/usr/share/nodejs}"
 
-# The decoder's sources; keep in step with src/codec_decode.cpp's callees. corner_table.cpp is
-# linked for the corner-table types the Edgebreaker decoder shares (unused code is dropped).
-sources=(
-  src/status.cpp
-  src/entropy.cpp
-  src/corner_table.cpp
-  src/edgebreaker_decode.cpp
-  src/quantize.cpp
-  src/parallelogram.cpp
-  src/codec_decode.cpp
-  src/normals.cpp
-  web/decoder/osteon_decoder.cpp
-)
-# Every export; osteon_decoder.mjs calls exactly these (and _initialize, the reactor's start-up).
-exports=(
-  osteon_alloc osteon_free_bytes osteon_decode osteon_free osteon_error
-  osteon_vertex_count osteon_triangle_count osteon_positions osteon_indices osteon_normals
-)
-
-# Measured on the ct-like meshes (web/README.md): -O3 decodes 5x faster than -Os for 2 KB more;
-# LTO, emmalloc (instead of dlmalloc), bulk memory and non-trapping float-to-int together save
-# 3 KB gzipped at the same speed. The two WebAssembly features are in every browser since 2021
-# (Chrome 75, Firefox 79, Safari 15) and in Node >= 14. Memory grows on demand up to 2 GiB
-# (a 1.5M-triangle mesh peaks at 80 MiB).
-features=(-mbulk-memory -mnontrapping-fptoint)
-cxxflags=(-std=c++20 -O3 -flto -DNDEBUG -fno-exceptions -fno-rtti "${features[@]}"
-          -Wall -Wextra -Wshadow -Wno-missing-field-initializers
-          -Iinclude -Isrc)
-[ "${OSTEON_WERROR:-0}" = 1 ] && cxxflags+=(-Werror)
-export_list=$(printf '"_%s",' "${exports[@]}")
-ldflags=(-O3 -flto "${features[@]}" --no-entry -sSTANDALONE_WASM -sMALLOC=emmalloc
-         -sALLOW_MEMORY_GROWTH=1 -sMAXIMUM_MEMORY=2GB -sFILESYSTEM=0
-         -sEXPORTED_FUNCTIONS="[${export_list%,}]")
-
-rm -rf "$out/obj"
-mkdir -p "$out/obj"
+# The decoder is a CMake target: CMakeLists.txt, configured with emcmake, builds osteon_core
+# (the same core and codec sources the native library compiles) with the browser's flags and
+# links web/decoder/osteon_decoder.cpp's C ABI with an explicit export list, so the sources are
+# listed once, there; so is the export list, which CMake writes beside the build for the check
+# below.
+cmake_flags=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DOSTEON_BUILD_TESTS=OFF)
+[ "${OSTEON_WERROR:-0}" = 1 ] && cmake_flags+=(-DOSTEON_WERROR=ON)
+mkdir -p "$out"
 echo "osteon: em++ $(em++ --version 2>/dev/null | sed -n '1s/.*) //p') -> $out"
-# One object per source, $jobs at a time (the machine is shared: default 2).
-printf '%s\n' "${sources[@]}" | xargs -P "$jobs" -I{} sh -c \
-  'out="$1" src="$2"; shift 2; em++ "$@" -c "$src" -o "$out/obj/$(basename "$src" .cpp).o"' \
-  _ "$out" {} "${cxxflags[@]}" || { echo "osteon: compiling the decoder failed" >&2; exit 1; }
-objects=()
-for s in "${sources[@]}"; do objects+=("$out/obj/$(basename "$s" .cpp).o"); done
-em++ "${objects[@]}" "${ldflags[@]}" -o "$out/osteon_decoder.wasm"
+emcmake cmake -S . -B "$out/cmake" "${cmake_flags[@]}" >/dev/null
+cmake --build "$out/cmake" --target osteon_decoder_wasm -j "$jobs" ||
+  { echo "osteon: compiling the decoder failed" >&2; exit 1; }
+cp "$out/cmake/osteon_decoder.wasm" "$out/osteon_decoder.wasm"
+mapfile -t exports < "$out/cmake/osteon_decoder_exports.txt"
 # The JavaScript modules, minified by esbuild (web/package.json; npm ci in web/) the way they ship:
 # each stays its own ES module, imports untouched. Without esbuild they are copied as written.
 esbuild="$root/web/node_modules/.bin/esbuild"

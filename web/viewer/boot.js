@@ -72,7 +72,7 @@
     for (let k = 0; k < Math.min(2, chunks.length); ++k) {
       if (!/^c\/[0-9a-f]{24}\.ostc$/.test(chunks[k].file)) continue;
       const response = fetch(new URL(chunks[k].file, manifestUrl));
-      response.catch(() => {});  // main.mjs reports it, naming the chunk's components
+      response.catch(() => {});  // streaming.mjs reports it, naming the chunk's components
       boot.chunks.set(k, response);
       boot.chunkStarts.set(k, performance.now());
     }
@@ -138,7 +138,7 @@
   for (let i = 0; i < workers; ++i) {
     try {
       const worker = new Worker(OSTEON_DECODER_WORKER_FILE, { type: 'module' });
-      // A worker that cannot start answers nothing; main.mjs refuses to wait on it.
+      // A worker that cannot start answers nothing; streaming.mjs refuses to wait on it.
       worker.addEventListener('error', (e) => {
         boot.decoderError ??= `the decoder worker failed: ${e.message || 'its script could not be loaded'}`;
       });

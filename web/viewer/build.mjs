@@ -4,7 +4,8 @@
 //   index.html                       the page, with its style (viewer.css) and its bootstrap
 //                                    (boot.js) inlined, minified: nothing blocks it from starting
 //                                    the downloads the first bones need
-//   viewer-<h>.js                    the page's script (main.mjs: panel, camera controls, picking)
+//   viewer-<h>.js                    the page's script (main.mjs and the modules it wires:
+//                                    panel, camera controls, picking, streams)
 //   render-worker-<h>.js             the render worker (render_worker.mjs), small so that it starts
 //                                    early; also inlined in index.html, whose bootstrap starts it
 //                                    from a blob: URL (this file is for pages that refuse those)

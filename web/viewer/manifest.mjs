@@ -145,6 +145,7 @@ export function parseManifest(json) {
     if (k >= chunks.length) fail(`${where}.chunk`, `no chunk ${k} (the package has ${chunks.length})`);
     const offset = count(c.offset, `${where}.offset`);
     const bytes = count(c.bytes, `${where}.bytes`);
+    if (offset > chunks[k].bytes) fail(`${where}.offset`, `byte ${offset} lies beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);
     if (bytes === 0) fail(`${where}.bytes`, 'expected at least one byte');
     if (offset + bytes > chunks[k].bytes) {
       fail(`${where}.bytes`, `bytes ${offset}-${offset + bytes} lie beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);

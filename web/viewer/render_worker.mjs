@@ -78,215 +78,267 @@ const kFirstFrameTriangles = 60000;
 // were done (a second and more with a software GPU).
 const kShownWaitMs = 250;
 
+/// The renderer's state: what has arrived from the page, the view once it can be made, and the
+/// frames. Every step below takes it (as `r`).
+function createRendererState(port, local) {
+  return {
+    port,
+    local,
+    pageOrigin: performance.timeOrigin,
+    init: null,
+    canvas: null,
+    context: null,
+    three: null,           // render_three.mjs, once loaded
+    manifest: null,
+    view: null,            // its view, once three.js, the context and the manifest are here
+    fatal: null,
+    settings: new Map(),   // the latest camera, size, parts and clip, not yet applied
+    picks: [],             // picks asked for before the view existed
+    queue: [],             // { ids, mesh } not yet added to the scene
+    frame: 0,
+    framePending: false,
+    drawnComponents: 0,
+    shownFrame: 0,         // the last frame the page says it has had an animation frame after
+    shownTimer: null,
+    seqSeen: 0,            // the page's last change (its 'render' seq) that the next frame includes
+  };
+}
+
+/// The page's performance.now() (the worker's clock starts later).
+function now(r) {
+  return performance.timeOrigin + performance.now() - r.pageOrigin;
+}
+
+function post(r, message) {
+  r.port.postMessage(message);
+}
+
+function mark(r, name) {
+  post(r, { type: 'timing', name, at: now(r) });
+}
+
+function fail(r, message) {
+  if (r.fatal) return;
+  r.fatal = message;
+  post(r, { type: 'fatal', error: message, at: now(r) });
+}
+
+const nextFrame = typeof requestAnimationFrame === 'function'
+  ? (f) => requestAnimationFrame(f)
+  : (f) => setTimeout(f, 16);
+
+function requestFrame(r) {
+  if (r.framePending || !r.view) return;
+  r.framePending = true;
+  nextFrame(() => drawFrame(r));
+}
+
+/// A frame for components that arrived: at once, or once the page has seen the last frame.
+function requestDataFrame(r) {
+  if (r.shownFrame >= r.frame || r.drawnComponents === 0) {
+    requestFrame(r);
+  } else if (r.shownTimer === null) {
+    r.shownTimer = setTimeout(() => {
+      r.shownTimer = null;
+      requestFrame(r);
+    }, kShownWaitMs);
+  }
+}
+
+/// How many queued meshes the next frame adds: everything that arrived since the last frame (one
+/// render, however many components came together), but for the first frame with bones
+/// (kFirstFrameTriangles, at least one mesh).
+function meshesForFrame(r) {
+  const { queue } = r;
+  if (r.drawnComponents > 0) return queue.length;
+  let triangles = 0;
+  let take = 0;
+  while (take < queue.length && (take === 0 || triangles + queue[take].mesh.indices.length / 3 <= kFirstFrameTriangles)) {
+    triangles += queue[take++].mesh.indices.length / 3;
+  }
+  return take;
+}
+
+/// Adds the first `take` queued meshes to the scene; returns the ids added (a mesh the scene
+/// refuses is reported as failed).
+function addMeshes(r, take) {
+  const added = [];
+  for (const { ids, mesh } of r.queue.splice(0, take)) {
+    for (const id of ids) {
+      try {
+        r.view.add(id, mesh);
+        added.push(id);
+        r.drawnComponents++;
+      } catch (e) {
+        post(r, { type: 'failed', ids: [id], error: String(e?.message ?? e), at: now(r) });
+      }
+    }
+  }
+  return added;
+}
+
+function drawFrame(r) {
+  r.framePending = false;
+  if (r.fatal) return;
+  const added = addMeshes(r, meshesForFrame(r));
+  try {
+    r.view.render();
+  } catch (e) {
+    fail(r, `osteon: drawing failed: ${e?.message ?? e}`);
+    return;
+  }
+  r.frame++;
+  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added });
+  if (r.queue.length) requestDataFrame(r);
+}
+
+// Only what changed: setting a canvas's size, even to the same value, clears its drawing buffer.
+function applySettings(r) {
+  const { view } = r;
+  for (const [type, message] of r.settings) {
+    if (type === 'size') view.setSize(message);
+    else if (type === 'camera') view.setCamera(message);
+    else if (type === 'parts') view.setParts(message);
+    else if (type === 'clip') view.setClip(message);
+  }
+  r.settings.clear();
+}
+
+/// Creates the view once its three ingredients are here (in any order).
+function startView(r) {
+  if (r.view || r.fatal || !r.three || !r.context || !r.manifest) return;
+  const { init } = r;
+  try {
+    r.view = r.three.createView({ canvas: r.canvas, context: r.context, manifest: r.manifest, width: init.width, height: init.height, pixelRatio: init.pixelRatio });
+    mark(r, 'view');
+    applySettings(r);
+    // The bone material's programs, compiled before the first mesh needs them.
+    r.view.precompile();
+    mark(r, 'compiled');
+  } catch (e) {
+    fail(r, `osteon: the renderer failed: ${e?.message ?? e}`);
+    return;
+  }
+  for (const { id, ndc } of r.picks.splice(0)) post(r, { type: 'picked', id, part: r.view.pick(ndc) });
+  requestFrame(r);
+}
+
+/// Imports three.js's part of the renderer: from `text` (the page fetched it) by a blob: URL, or
+/// from its file beside the page.
+async function loadThree(r, text) {
+  let module = null;
+  if (text !== undefined) {
+    const url = URL.createObjectURL(new Blob([text], { type: 'text/javascript' }));
+    module = await import(url).catch(() => null);
+    URL.revokeObjectURL(url);
+  }
+  try {
+    // Beside the page (this script may run from a blob: URL, where import.meta.url says nothing).
+    module ??= await import(new URL(kThreeFile, r.init?.base ?? import.meta.url).href);
+  } catch (e) {
+    fail(r, `osteon: the renderer could not be loaded: ${e?.message ?? e}`);
+    return;
+  }
+  r.three = module;
+  mark(r, 'three');
+  startView(r);
+}
+
+/// 'init': the page's clock and the canvas; the WebGL context, made before three.js is here.
+function onInit(r, message) {
+  r.init = message;
+  r.pageOrigin = message.pageOrigin ?? performance.timeOrigin;
+  mark(r, 'started');
+  r.canvas = r.local.canvas ?? message.canvas;
+  try {
+    r.context = r.canvas.getContext('webgl2', kContextAttributes);
+  } catch (e) {
+    r.context = null;
+  }
+  if (!r.context) {
+    fail(r, 'osteon: WebGL 2 is not available in this browser');
+    return;
+  }
+  mark(r, 'context');
+  startView(r);
+}
+
+/// 'manifest': its text parsed (a failure is the page's to report: it parses the same text).
+function onManifest(r, message) {
+  if (message.error) {
+    r.fatal = message.error;  // the page reports it
+    return;
+  }
+  try {
+    r.manifest = parseManifest(JSON.parse(message.text));
+  } catch (e) {
+    r.fatal = String(e?.message ?? e);  // the page parses the same text and reports it
+    return;
+  }
+  startView(r);
+}
+
+/// 'shown': the page has had an animation frame since `message.frame`; a waiting frame may go.
+function onShown(r, message) {
+  r.shownFrame = Math.max(r.shownFrame, message.frame);
+  if (r.queue.length && r.shownFrame >= r.frame) {
+    clearTimeout(r.shownTimer);
+    r.shownTimer = null;
+    requestFrame(r);
+  }
+}
+
+/// 'pick': answered now, with -1 when nothing will be drawn, or once the view exists.
+function onPick(r, message) {
+  if (r.view) post(r, { type: 'picked', id: message.id, part: r.view.pick(message.ndc) });
+  else if (r.fatal) post(r, { type: 'picked', id: message.id, part: -1 });
+  else r.picks.push(message);
+}
+
+function handle(r, message) {
+  switch (message?.type) {
+    case 'init':
+      onInit(r, message);
+      return;
+    case 'manifest':
+      onManifest(r, message);
+      return;
+    case 'three':
+      loadThree(r, message.text);
+      return;
+    case 'mesh':
+      r.queue.push(message);
+      requestDataFrame(r);
+      return;
+    case 'shown':
+      onShown(r, message);
+      return;
+    case 'camera':
+    case 'size':
+    case 'parts':
+    case 'clip':
+      r.settings.set(message.type, message);
+      if (r.view) {
+        applySettings(r);
+        requestFrame(r);
+      }
+      return;
+    case 'pick':
+      onPick(r, message);
+      return;
+    case 'render':
+      r.seqSeen = Math.max(r.seqSeen, message.seq ?? 0);
+      requestFrame(r);
+      return;
+    default:
+  }
+}
+
 /// Serves one viewer on `port` (a worker's global scope or a MessagePort). `local.canvas`, on the
 /// page's main thread, is the canvas element, which cannot be posted.
 export function startRenderer(port, local = {}) {
-  let pageOrigin = performance.timeOrigin;
-  const now = () => performance.timeOrigin + performance.now() - pageOrigin;
-  const post = (message) => port.postMessage(message);
-  const mark = (name) => post({ type: 'timing', name, at: now() });
-
-  let init = null;
-  let canvas = null;
-  let context = null;
-  let three = null;           // render_three.mjs, once loaded
-  let manifest = null;
-  let view = null;            // its view, once three.js, the context and the manifest are here
-  let fatal = null;
-  const settings = new Map(); // the latest camera, size, parts and clip, not yet applied
-  const picks = [];           // picks asked for before the view existed
-  const queue = [];           // { ids, mesh } not yet added to the scene
-  let frame = 0;
-  let framePending = false;
-  let drawnComponents = 0;
-  let shownFrame = 0;         // the last frame the page says it has had an animation frame after
-  let shownTimer = null;
-  let seqSeen = 0;            // the page's last change (its 'render' seq) that the next frame includes
-
-  function fail(message) {
-    if (fatal) return;
-    fatal = message;
-    post({ type: 'fatal', error: message, at: now() });
-  }
-
-  const nextFrame = typeof requestAnimationFrame === 'function'
-    ? (f) => requestAnimationFrame(f)
-    : (f) => setTimeout(f, 16);
-
-  function requestFrame() {
-    if (framePending || !view) return;
-    framePending = true;
-    nextFrame(drawFrame);
-  }
-
-  /// A frame for components that arrived: at once, or once the page has seen the last frame.
-  function requestDataFrame() {
-    if (shownFrame >= frame || drawnComponents === 0) {
-      requestFrame();
-    } else if (shownTimer === null) {
-      shownTimer = setTimeout(() => {
-        shownTimer = null;
-        requestFrame();
-      }, kShownWaitMs);
-    }
-  }
-
-  function drawFrame() {
-    framePending = false;
-    if (fatal) return;
-    // Everything that arrived since the last frame goes into this one (one render, however many
-    // components came together), but for the first frame with bones (kFirstFrameTriangles).
-    const added = [];
-    let take = queue.length;
-    if (drawnComponents === 0) {
-      let triangles = 0;
-      take = 0;
-      while (take < queue.length && (take === 0 || triangles + queue[take].mesh.indices.length / 3 <= kFirstFrameTriangles)) {
-        triangles += queue[take++].mesh.indices.length / 3;
-      }
-    }
-    for (const { ids, mesh } of queue.splice(0, take)) {
-      for (const id of ids) {
-        try {
-          view.add(id, mesh);
-          added.push(id);
-          drawnComponents++;
-        } catch (e) {
-          post({ type: 'failed', ids: [id], error: String(e?.message ?? e), at: now() });
-        }
-      }
-    }
-    try {
-      view.render();
-    } catch (e) {
-      fail(`osteon: drawing failed: ${e?.message ?? e}`);
-      return;
-    }
-    frame++;
-    post({ type: 'frame', frame, seq: seqSeen, at: now(), drawn: added });
-    if (queue.length) requestDataFrame();
-  }
-
-  // Only what changed: setting a canvas's size, even to the same value, clears its drawing buffer.
-  function applySettings() {
-    for (const [type, message] of settings) {
-      if (type === 'size') view.setSize(message);
-      else if (type === 'camera') view.setCamera(message);
-      else if (type === 'parts') view.setParts(message);
-      else if (type === 'clip') view.setClip(message);
-    }
-    settings.clear();
-  }
-
-  /// Creates the view once its three ingredients are here (in any order).
-  function startView() {
-    if (view || fatal || !three || !context || !manifest) return;
-    try {
-      view = three.createView({ canvas, context, manifest, width: init.width, height: init.height, pixelRatio: init.pixelRatio });
-      mark('view');
-      applySettings();
-      // The bone material's programs, compiled before the first mesh needs them.
-      view.precompile();
-      mark('compiled');
-    } catch (e) {
-      fail(`osteon: the renderer failed: ${e?.message ?? e}`);
-      return;
-    }
-    for (const { id, ndc } of picks.splice(0)) post({ type: 'picked', id, part: view.pick(ndc) });
-    requestFrame();
-  }
-
-  async function loadThree(text) {
-    let module = null;
-    if (text !== undefined) {
-      const url = URL.createObjectURL(new Blob([text], { type: 'text/javascript' }));
-      module = await import(url).catch(() => null);
-      URL.revokeObjectURL(url);
-    }
-    try {
-      // Beside the page (this script may run from a blob: URL, where import.meta.url says nothing).
-      module ??= await import(new URL(kThreeFile, init?.base ?? import.meta.url).href);
-    } catch (e) {
-      fail(`osteon: the renderer could not be loaded: ${e?.message ?? e}`);
-      return;
-    }
-    three = module;
-    mark('three');
-    startView();
-  }
-
-  function handle(message) {
-    switch (message?.type) {
-      case 'init': {
-        init = message;
-        pageOrigin = message.pageOrigin ?? performance.timeOrigin;
-        mark('started');
-        canvas = local.canvas ?? message.canvas;
-        try {
-          context = canvas.getContext('webgl2', kContextAttributes);
-        } catch (e) {
-          context = null;
-        }
-        if (!context) {
-          fail('osteon: WebGL 2 is not available in this browser');
-          return;
-        }
-        mark('context');
-        startView();
-        return;
-      }
-      case 'manifest':
-        if (message.error) {
-          fatal = message.error;  // the page reports it
-          return;
-        }
-        try {
-          manifest = parseManifest(JSON.parse(message.text));
-        } catch (e) {
-          fatal = String(e?.message ?? e);  // the page parses the same text and reports it
-          return;
-        }
-        startView();
-        return;
-      case 'three':
-        loadThree(message.text);
-        return;
-      case 'mesh':
-        queue.push(message);
-        requestDataFrame();
-        return;
-      case 'shown':
-        shownFrame = Math.max(shownFrame, message.frame);
-        if (queue.length && shownFrame >= frame) {
-          clearTimeout(shownTimer);
-          shownTimer = null;
-          requestFrame();
-        }
-        return;
-      case 'camera':
-      case 'size':
-      case 'parts':
-      case 'clip':
-        settings.set(message.type, message);
-        if (view) {
-          applySettings();
-          requestFrame();
-        }
-        return;
-      case 'pick':
-        if (view) post({ type: 'picked', id: message.id, part: view.pick(message.ndc) });
-        else if (fatal) post({ type: 'picked', id: message.id, part: -1 });
-        else picks.push(message);
-        return;
-      case 'render':
-        seqSeen = Math.max(seqSeen, message.seq ?? 0);
-        requestFrame();
-        return;
-      default:
-    }
-  }
-
-  port.onmessage = (event) => handle(event.data);
+  const r = createRendererState(port, local);
+  port.onmessage = (event) => handle(r, event.data);
 }
 
 // In a worker, serve the page that started it.

@@ -56,6 +56,8 @@ bad = {
     "bad_component_range_outside_chunk.json": ("components[2].bytes", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"] - m["components"][2]["bytes"] + 1)),
     # An offset at the chunk's end (an empty range there, then its bytes) is named at .bytes too.
     "bad_component_offset_at_chunk_end.json": ("components[2].bytes", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"])),
+    # An offset past the chunk's end is named at .offset itself.
+    "bad_component_offset_past_chunk_end.json": ("components[2].offset", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"] + 1)),
     "bad_component_bounds_null.json": ("components[4].bounds.max[1]", lambda m: m["components"][4]["bounds"]["max"].__setitem__(1, None)),
     "bad_component_bounds_min_above_max.json": ("components[5].bounds", lambda m: swap_box(m["components"][5]["bounds"])),
     "bad_instance_part_out_of_range.json": ("instances[5].part", lambda m: m["instances"][5].update(part=len(m["parts"]))),

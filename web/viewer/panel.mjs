@@ -1,0 +1,307 @@
+// SPDX-License-Identifier: Apache-2.0
+// The page's panel (index.html): the error box, the progress bar and status line, the statistics,
+// the selected bone's info, the list of bones with its search and checkboxes, the groups, the
+// clipping plane, and the buttons. Every function takes the page's state (state.mjs); wirePanel
+// attaches the listeners once.
+
+import { drawInfo, drawStats, findPart, formatLength } from './manifest.mjs';
+import { partVisible } from './state.mjs';
+import { fitAll, framePart, requestRender, send, sendParts } from './view.mjs';
+
+export const $ = (id) => document.getElementById(id);
+
+// ---------------------------------------------------------------------------------------------
+// Status, errors, statistics
+
+/// Lists an 'osteon: ...' message in the error box and in window.osteon.errors.
+export function reportError(state, message) {
+  state.report.errors.push(message);
+  const li = document.createElement('li');
+  li.textContent = message;
+  $('error-list').append(li);
+  $('errors').hidden = false;
+}
+
+function megabytes(bytes) {
+  return `${(bytes / 1e6).toFixed(bytes < 1e7 ? 2 : 1)} MB`;
+}
+
+// The status line and the statistics are rewritten at most every kStatusMs while loading, however
+// many components arrive: every change on the page is a new frame for the browser's compositor,
+// which (with a software GPU, headless) reads the whole window back each time, on the same GPU
+// thread that creates the renderer's context and compiles its shaders. Changing the text at every
+// animation frame kept that thread busy and delayed the first bones by hundreds of milliseconds.
+const kStatusMs = 500;
+
+export function scheduleStatus(state) {
+  if (state.statusTimer !== null) return;
+  state.statusTimer = setTimeout(() => {
+    state.statusTimer = null;
+    state.statusAt = performance.now();
+    updateStatus(state);
+  }, Math.max(0, state.statusAt + kStatusMs - performance.now()));
+}
+
+/// Rewrites the progress bar, the status line and the statistics now.
+export function updateStatus(state) {
+  const r = state.report;
+  const settledCount = r.componentsLoaded + r.componentsFailed;
+  $('progress').max = Math.max(1, r.componentsTotal);
+  $('progress').value = settledCount;
+  const failed = r.componentsFailed ? `, ${r.componentsFailed} failed` : '';
+  if (r.done) {
+    const seconds = ((r.allLoadedMs ?? performance.now()) / 1000).toFixed(2);
+    $('progress-text').textContent =
+      `${r.componentsLoaded} of ${r.componentsTotal} components${failed} · ${megabytes(r.bytesLoaded)} · ${seconds} s`;
+    $('status').classList.add('done');
+  } else {
+    $('progress-text').textContent =
+      `${settledCount} / ${r.componentsTotal} components${failed} · ${megabytes(r.bytesLoaded)} / ${megabytes(r.bytesTotal)}`;
+  }
+  $('stats').textContent =
+    `${r.instancesDrawn.toLocaleString('en')} of ${r.instancesTotal.toLocaleString('en')} instances · ` +
+    `${r.trianglesDrawn.toLocaleString('en')} triangles · ${r.drawCalls} draw calls`;
+}
+
+/// The counts in window.osteon, from the manifest and what is on screen (synchronous: a test
+/// reads them right after a click).
+export function updateStats(state) {
+  if (!state.manifest) return;
+  const s = drawStats(state.manifest, state.loaded, (id) => partVisible(state, id));
+  state.report.instancesDrawn = s.instances;
+  state.report.trianglesDrawn = s.triangles;
+  state.report.drawCalls = s.drawCalls;
+  scheduleStatus(state);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Selection, visibility, lists
+
+function applyVisibility(state) {
+  for (const row of state.partRows) {
+    const visible = partVisible(state, row.part.id);
+    row.checkbox.checked = visible;
+    row.li.classList.toggle('hidden-part', !visible);
+  }
+  for (const [group, on] of state.groupOn) {
+    const box = document.querySelector(`#group-list input[data-group="${CSS.escape(group)}"]`);
+    if (box) box.checked = on;
+  }
+  sendParts(state);
+  updateStats(state);
+}
+
+function drawnAs(state, part) {
+  const { manifest } = state;
+  const info = drawInfo(manifest, part.id, state.loaded);
+  const words = [];
+  if (part.prototype !== part.id) {
+    const mirrored = info.some((i) => i.mirror);
+    words.push(`an instance of ${manifest.parts[part.prototype].displayName}${mirrored ? ', mirrored' : ''}`);
+  } else {
+    const copies = manifest.parts.filter((p) => p.prototype === part.id && p.id !== part.id).length;
+    words.push(copies ? `its own mesh, repeated by ${copies} other part${copies > 1 ? 's' : ''}` : 'its own mesh');
+  }
+  const instanced = info.filter((i) => i.instanced);
+  if (instanced.length) {
+    const batch = Math.max(...instanced.map((i) => i.batchSize));
+    words.push(`GPU-instanced${batch ? ` (${batch} in one draw call)` : ''}`);
+  }
+  words.push(`${info.length} component${info.length > 1 ? 's' : ''}${info.every((i) => i.loaded) ? '' : `, ${info.filter((i) => !i.loaded).length} not loaded`}`);
+  return { text: words.join(' · '), instance: part.prototype !== part.id, gpuInstanced: instanced.length > 0 };
+}
+
+/// Fills the info section for the selected part (or says none is).
+export function showInfo(state) {
+  const { manifest, selectedPart } = state;
+  const part = selectedPart >= 0 ? manifest.parts[selectedPart] : null;
+  state.report.selected = part ? part.displayName : null;
+  $('info-name').textContent = part ? part.displayName : 'No bone selected';
+  $('info-hint').hidden = !!part;
+  $('info-fields').hidden = !part;
+  for (const id of ['frame', 'hide', 'isolate']) $(id).disabled = !part;
+  for (const row of state.partRows) row.button.setAttribute('aria-current', String(row.part.id === selectedPart));
+  if (!part) return;
+  const bound = Math.max(...manifest.instancesOfPart[part.id].map((i) => manifest.instances[i].errorBound));
+  const drawn = drawnAs(state, part);
+  $('info-group').textContent = part.group || '(none)';
+  $('info-triangles').textContent = part.triangles.toLocaleString('en');
+  $('info-error').textContent = Number.isFinite(bound) ? formatLength(bound, manifest.unit) : '–';
+  $('info-drawn').textContent = drawn.text;
+  $('info').dataset.instance = String(drawn.instance);
+  $('info').dataset.gpuInstanced = String(drawn.gpuInstanced);
+  $('info-source').textContent = part.source || part.name;
+}
+
+/// Selects part `partId` (-1: none): highlighted, its info shown, framed if `frame`, its row
+/// scrolled into view if `scroll`.
+export function select(state, partId, { frame = false, scroll = true } = {}) {
+  state.selectedPart = partId;
+  sendParts(state);
+  showInfo(state);
+  if (partId >= 0) {
+    if (frame) framePart(state, partId);
+    const row = state.partRows.find((r) => r.part.id === partId);
+    if (scroll && row && row.li.offsetParent) row.li.scrollIntoView({ block: 'nearest' });
+  }
+}
+
+/// select() by display name, name or source file; false for an unknown name.
+export function selectByName(state, name, options) {
+  const part = state.manifest && findPart(state.manifest, name);
+  if (!part) return false;
+  select(state, part.id, options);
+  return true;
+}
+
+function buildLists(state) {
+  const { manifest, partRows } = state;
+  const list = $('part-list');
+  const rows = document.createDocumentFragment();
+  const sorted = [...manifest.parts].sort((a, b) => a.displayName.localeCompare(b.displayName, 'en', { numeric: true }));
+  for (const part of sorted) {
+    const li = document.createElement('li');
+    const checkbox = document.createElement('input');
+    checkbox.type = 'checkbox';
+    checkbox.checked = partVisible(state, part.id);
+    checkbox.dataset.part = String(part.id);
+    checkbox.setAttribute('aria-label', `Show ${part.displayName}`);
+    const button = document.createElement('button');
+    button.type = 'button';
+    button.textContent = part.displayName;
+    button.title = part.name;
+    button.dataset.part = String(part.id);
+    li.append(checkbox, button);
+    li.classList.toggle('hidden-part', !partVisible(state, part.id));
+    rows.append(li);
+    partRows.push({ part, li, checkbox, button });
+  }
+  list.append(rows);
+  // One listener each for the whole list instead of two per bone.
+  list.addEventListener('change', (e) => {
+    const id = Number(e.target.dataset.part);
+    if (!(id >= 0)) return;
+    if (e.target.checked) {
+      state.hiddenParts.delete(id);
+      state.groupOn.set(manifest.parts[id].group, true);
+    } else {
+      state.hiddenParts.add(id);
+    }
+    applyVisibility(state);
+  });
+  list.addEventListener('click', (e) => {
+    const button = e.target.closest('button[data-part]');
+    if (button) select(state, Number(button.dataset.part), { frame: true, scroll: false });
+  });
+  filterList(state);
+  showInfo(state);
+}
+
+// The list of bones (235 rows for BodyParts3D) is built once loading has ended, or kListsAfterMs
+// after the manifest, when the browser is idle: painting it takes the GPU process (which, with a
+// software GPU, rasterizes the page's text too) from the renderer's frames, and held them off the
+// screen by a third of a second when it was built at the first frame.
+export const kListsAfterMs = 3000;
+
+export function buildListsSoon(state) {
+  if (state.listsBuilt || !state.manifest) return;
+  state.listsBuilt = true;
+  const idle = window.requestIdleCallback ?? ((f) => setTimeout(f, 1));
+  idle(() => buildLists(state), { timeout: 500 });
+}
+
+/// The group checkboxes, all on, once the manifest is read.
+export function buildGroups(state) {
+  const { manifest, groupOn } = state;
+  const groups = $('group-list');
+  for (const group of [...manifest.groups].sort()) {
+    groupOn.set(group, true);
+    const label = document.createElement('label');
+    const box = document.createElement('input');
+    box.type = 'checkbox';
+    box.checked = true;
+    box.dataset.group = group;
+    box.addEventListener('change', () => {
+      groupOn.set(group, box.checked);
+      applyVisibility(state);
+    });
+    const n = manifest.parts.filter((p) => p.group === group).length;
+    label.append(box, ` ${group || '(no group)'} (${n})`);
+    groups.append(label);
+  }
+}
+
+function filterList(state) {
+  const { partRows } = state;
+  const q = $('search').value.trim().toLowerCase();
+  let shown = 0;
+  for (const row of partRows) {
+    const match = !q || row.part.displayName.toLowerCase().includes(q) || row.part.name.toLowerCase().includes(q);
+    row.li.hidden = !match;
+    shown += match;
+  }
+  $('part-count').textContent = q ? `${shown} of ${partRows.length} match` : `${partRows.length} bones`;
+  return partRows.filter((r) => !r.li.hidden);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Clipping plane
+
+/// Sends the clipping plane the controls describe to the renderer.
+export function updateClip(state) {
+  const { manifest } = state;
+  if (!manifest) return;
+  const on = $('clip-on').checked;
+  const axis = Number($('clip-axis').value);
+  const t = Number($('clip-pos').value) / 1000;
+  const lo = manifest.bounds.min[axis];
+  const hi = manifest.bounds.max[axis];
+  const at = lo + t * (hi - lo);
+  const sign = $('clip-flip').checked ? -1 : 1;
+  // Three.js draws the side where normal . p + constant >= 0: keep p[axis] >= at, or <= at.
+  const normal = [0, 0, 0];
+  normal[axis] = sign;
+  $('clip-value').textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
+  send(state, { type: 'clip', on, normal, constant: -sign * at });
+  requestRender(state);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The buttons and fields
+
+/// Attaches the panel's listeners (once, before the manifest is read: each waits for it).
+export function wirePanel(state) {
+  $('fit').addEventListener('click', () => fitAll(state));
+  $('panel-toggle').addEventListener('click', () => {
+    const collapsed = $('panel').classList.toggle('collapsed');
+    $('panel-toggle').setAttribute('aria-expanded', String(!collapsed));
+  });
+  $('frame').addEventListener('click', () => state.selectedPart >= 0 && framePart(state, state.selectedPart));
+  $('hide').addEventListener('click', () => {
+    if (state.selectedPart < 0) return;
+    state.hiddenParts.add(state.selectedPart);
+    applyVisibility(state);
+  });
+  $('isolate').addEventListener('click', () => {
+    const { manifest, selectedPart, hiddenParts } = state;
+    if (selectedPart < 0) return;
+    for (const part of manifest.parts) if (part.id !== selectedPart) hiddenParts.add(part.id);
+    hiddenParts.delete(selectedPart);
+    state.groupOn.set(manifest.parts[selectedPart].group, true);
+    applyVisibility(state);
+  });
+  $('show-all').addEventListener('click', () => {
+    if (!state.manifest) return;
+    state.hiddenParts.clear();
+    for (const group of state.groupOn.keys()) state.groupOn.set(group, true);
+    applyVisibility(state);
+  });
+  $('search').addEventListener('input', () => filterList(state));
+  $('search').addEventListener('keydown', (e) => {
+    if (e.key !== 'Enter' || !state.manifest) return;
+    const first = filterList(state)[0];
+    if (first) select(state, first.part.id, { frame: true });
+  });
+  for (const id of ['clip-on', 'clip-axis', 'clip-flip']) $(id).addEventListener('change', () => updateClip(state));
+  $('clip-pos').addEventListener('input', () => updateClip(state));
+}

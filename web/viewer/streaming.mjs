@@ -1,0 +1,145 @@
+// SPDX-License-Identifier: Apache-2.0
+// Loading: the package's chunk files read as streams (stream.mjs), each component handed to the
+// decoder workers (decoder/pool.mjs) the moment its bytes are in, and each decoded mesh passed on
+// to the renderer, its buffers transferred, not copied. Also the bookkeeping of what has loaded:
+// the per-component fetch log, the counts in window.osteon, and the end of loading (every
+// component drawn or failed, or nothing can be drawn). Every function takes the page's state
+// (state.mjs).
+
+import { createDecoderPool } from '../decoder/pool.mjs';
+import { buildListsSoon, reportError, scheduleStatus, showInfo, updateStats, updateStatus } from './panel.mjs';
+import { createChunkStream, planChunks } from './stream.mjs';
+import { send } from './view.mjs';
+
+const kChunksInFlight = 2;
+
+/// Once the manifest is read: the totals in window.osteon and an empty fetch log entry per
+/// component, in fetch order.
+export function startLog(state) {
+  const { manifest, report } = state;
+  report.manifestMs = performance.now();
+  report.unit = manifest.unit;
+  report.componentsTotal = manifest.components.length;
+  report.instancesTotal = manifest.instances.length;
+  report.bytesTotal = manifest.bytesTotal;
+  report.chunksTotal = manifest.chunks.length;
+  report.fetchLog = manifest.streamOrder.map((c) => ({
+    id: c.id,
+    chunk: c.chunk,
+    file: c.file,
+    offset: c.offset,
+    bytes: c.bytes,
+    fetchStart: null,
+    fetchEnd: null,
+    decodedAt: null,
+    addedAt: null,
+    error: null,
+  }));
+  for (const entry of report.fetchLog) state.logById.set(entry.id, entry);
+}
+
+/// Loading has ended at `at`: the decoder workers go, the status says so, the lists are built.
+export function finish(state, at) {
+  const { report } = state;
+  if (report.done) return;
+  report.allLoadedMs = at;
+  report.done = true;
+  for (const worker of state.boot?.decoders ?? []) worker.terminate();
+  updateStatus(state);
+  buildListsSoon(state);
+}
+
+/// Components `ids` failed with `error` (one message for them all).
+export function componentsFailed(state, ids, error) {
+  if (state.fatal) return;
+  for (const id of ids) {
+    const entry = state.logById.get(id);
+    if (entry) entry.error = error;
+    if (!state.settled.has(id)) {
+      state.settled.add(id);
+      state.report.componentsFailed++;
+    }
+  }
+  reportError(state, error);
+  scheduleStatus(state);
+  if (state.settled.size === state.report.componentsTotal) finish(state, performance.now());
+}
+
+/// The renderer drew components `ids` for the first time in its frame at `at`.
+export function componentsDrawn(state, ids, at) {
+  const { report } = state;
+  for (const id of ids) {
+    const entry = state.logById.get(id);
+    if (entry) entry.addedAt = at;
+    state.loaded.add(id);
+    if (!state.settled.has(id)) {
+      state.settled.add(id);
+      report.componentsLoaded++;
+    }
+  }
+  report.firstComponentMs ??= at;
+  updateStats(state);
+  if (state.selectedPart >= 0) showInfo(state);
+  if (state.settled.size === report.componentsTotal) finish(state, at);
+}
+
+/// Nothing can be drawn (`error`, at `at`): nothing more is fetched, and every component not yet
+/// drawn counts as failed.
+export function rendererFailed(state, error, at) {
+  const { report } = state;
+  if (state.fatal || report.done) return;
+  state.fatal = true;
+  report.framePending = false;
+  state.stopStream.abort();
+  reportError(state, error);
+  report.componentsFailed = report.componentsTotal - report.componentsLoaded;
+  finish(state, at);
+}
+
+/// Streams the chunks: each component decoded as soon as its bytes are in, each mesh passed on to
+/// the renderer (its buffers transferred, not copied).
+export async function startStream(state) {
+  const { boot, logById, stopStream } = state;
+  if (state.streaming || !state.manifest || state.fatal || state.report.done) return;
+  state.streaming = true;
+  let next = 0;
+  const poolReady = boot.wasm.then((wasm) =>
+    createDecoderPool({ workers: boot.decoders.length, wasm, createWorker: () => boot.decoders[next++] }));
+  poolReady.catch((e) => {
+    const message = String(e?.message ?? e);
+    rendererFailed(state, message.startsWith('osteon:') ? message : `osteon: cannot start the decoder: ${message}`, performance.now());
+  });
+  // The bootstrap starts the first chunks itself (once three.js is in): the stream takes them up.
+  await boot.chunksStarted;
+  const stream = createChunkStream(planChunks(state.manifest, boot.manifestUrl), {
+    limit: kChunksInFlight,
+    // The first chunks are already on their way (boot.js).
+    fetchChunk: (chunk) => boot.chunks.get(chunk.index) ?? fetch(chunk.url, { signal: stopStream.signal }),
+    signal: stopStream.signal,
+    // A decoder worker that never started would never answer.
+    decode: async (buffer, range) => {
+      const pool = await poolReady;
+      if (boot.decoderError) throw new Error(`osteon: ${range.label}: ${boot.decoderError}`);
+      return pool.decode(buffer, range.label);
+    },
+    onChunkStart: (chunk, at) => {
+      const start = boot.chunkStarts.get(chunk.index) ?? at;
+      for (const range of chunk.ranges) for (const c of range.components) logById.get(c.id).fetchStart = start;
+    },
+    onReceived: (range, at, bytesReceived) => {
+      for (const c of range.components) logById.get(c.id).fetchEnd = at;
+      state.report.bytesLoaded = bytesReceived;
+      scheduleStatus(state);
+    },
+    onDecoded: (range, mesh, at) => {
+      for (const c of range.components) logById.get(c.id).decodedAt = at;
+      if (state.fatal) return;
+      const buffers = [mesh.positions?.buffer, mesh.indices?.buffer, mesh.normals?.buffer].filter(Boolean);
+      send(state, { type: 'mesh', ids: range.components.map((c) => c.id), mesh }, buffers);
+    },
+    onFailed: (range, error) => componentsFailed(state, range.components.map((c) => c.id), error),
+    onChunkError: (chunk, error) => reportError(state, error),
+  });
+  await stream.run();
+  (await poolReady.catch(() => null))?.terminate();
+}
