@@ -93,7 +93,7 @@ struct DracoRun {
 DracoRun run_draco(const osteon::Mesh& mesh, int bits, const Timing& timing,
                    const std::string& stream_stem);
 
-/// The grid: origin at the bounding box's minimum, step = largest side / (2^bits - 1).
+/// The benchmark's grid: origin at the bounding box's minimum, step = largest side / (2^bits - 1).
 osteon::QuantizationGrid grid_for(const osteon::Mesh& mesh, int bits);
 
 /// meshoptimizer 0.18 on positions quantized to grid_for(mesh, bits): uint16 x 3 plus 2 bytes of

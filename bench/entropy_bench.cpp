@@ -10,7 +10,7 @@
 #include "core/byte_io.hpp"
 #include "codec/entropy.hpp"
 
-// Decoding throughput of the symbol coder (src/entropy.cpp) on two synthetic streams shaped like
+// Decoding throughput of the symbol coder (src/codec/entropy.cpp) on two synthetic streams shaped like
 // the codec's: Edgebreaker-like CLERS symbols with the previous symbol as context, and
 // geometry-like residual buckets (24 symbols, 6 contexts) with a raw bit stream of mantissas.
 // Built with the other benchmarks (target entropy_bench). Prints symbols/s (best of 15) and

@@ -35,7 +35,7 @@
 #include "osteon/segment.hpp"
 
 // Segmentation quality on the Princeton Segmentation Benchmark, scored the benchmark's
-// way (osteon's evaluator, include/osteon/segeval.hpp): every segmentation of a model against
+// way (osteon's evaluator, tools/support/segeval.hpp): every segmentation of a model against
 // each of its human segmentations, averaged over them, then over the models of a category and
 // over all models. Rows:
 // - Human: every unordered pair of a model's human segmentations (both ways for Rm and Rf);
@@ -623,7 +623,7 @@ int main(int argc, char** argv) {
                           " --write " + write_path;
     std::ostringstream body;
     body << "The Princeton Segmentation Benchmark's measures (Chen, Golovinskiy, Funkhouser 2009; "
-            "osteon's evaluator `include/osteon/segeval.hpp`, definitions in docs/DESIGN.md) on "
+            "osteon's evaluator `tools/support/segeval.hpp`, definitions in docs/DESIGN.md) on "
          << models.size() << " of its models (" << human
          << " human segmentations) in ../shared/data: each segmentation is scored against every "
             "human segmentation of its model and averaged over them, then over models. All "

@@ -18,7 +18,7 @@
 
 // The Princeton Segmentation Benchmark's measures: hand-worked answers on a square and a cube,
 // the .seg reader's errors, the CLI, and the benchmark's Human, None and Every rows on the 38
-// models in ../shared/data, which an independent implementation of segEval gives (issue 5).
+// models in ../shared/data, which an independent implementation of segEval gives.
 
 namespace osteon {
 namespace {
@@ -511,7 +511,7 @@ std::vector<BenchmarkMesh> load_benchmark(const std::string& data) {
 
 void expect_row(const char* row, const SegmentationScores& got, std::optional<double> cd, double hd,
                 double rm, double rf, double ri, double gce, double lce) {
-  constexpr double kTolerance = 0.002;  // issue 5: within 0.002 of the independent implementation
+  constexpr double kTolerance = 0.002;  // within 0.002 of the independent implementation
   SCOPED_TRACE(row);
   EXPECT_EQ(got.cut_discrepancy.has_value(), cd.has_value());
   if (got.cut_discrepancy && cd) {

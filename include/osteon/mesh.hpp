@@ -78,7 +78,7 @@ Aabb bounding_box(const Mesh& mesh);
 Mesh transform_mesh(const Mesh& mesh, const Mat4& matrix);
 
 // ---------------------------------------------------------------------------------------------
-// Welding and degenerate triangles (src/weld.cpp)
+// Welding and degenerate triangles (src/core/weld.cpp)
 
 struct WeldOptions {
   /// 0: merge only positions that are exactly equal (-0 equals +0). > 0: also merge positions

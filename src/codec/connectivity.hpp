@@ -8,7 +8,7 @@
 #include "core/byte_io.hpp"
 #include "osteon/status.hpp"
 
-// The connectivity stage of the codec (src/edgebreaker_encode.cpp, src/edgebreaker_decode.cpp,
+// The connectivity stage of the codec (src/codec/edgebreaker_encode.cpp, src/codec/edgebreaker_decode.cpp,
 // src/corner_table.*): any triangle list in, the same triangles out, vertices renumbered.
 
 namespace osteon::detail {

@@ -11,7 +11,7 @@
 #include "osteon/mesh.hpp"
 #include "osteon/status.hpp"
 
-// The geometry stage of the codec (src/quantize.cpp, src/parallelogram.cpp): positions on a grid,
+// The geometry stage of the codec (src/codec/quantize.cpp, src/codec/parallelogram.cpp): positions on a grid,
 // predicted in vertex order from already-decoded neighbours, residuals entropy-coded. Both sides
 // run on the same decoded connectivity (connectivity.hpp's NewestTriangles: each triangle filed
 // under its newest vertex, with the vertex across from it), so the encoder needs nothing from

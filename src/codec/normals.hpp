@@ -10,7 +10,7 @@
 #include "osteon/mesh.hpp"
 #include "osteon/status.hpp"
 
-// Transmitted normals (src/normals.cpp): octahedral, predicted from the decoded surface.
+// Transmitted normals (src/codec/normals.cpp): octahedral, predicted from the decoded surface.
 
 namespace osteon::detail {
 

@@ -32,7 +32,7 @@
 //   segmentation is one segment or one segment per triangle, as in segEval.
 // The contingency table has one cell per pair of segments that share a triangle; it is dense when
 // small, else built by sorting, so a one-segment-per-triangle segmentation costs O(T log T).
-// The cut discrepancy lives in src/cut_discrepancy.cpp.
+// The cut discrepancy lives in tools/support/cut_discrepancy.cpp.
 
 namespace osteon {
 
