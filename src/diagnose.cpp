@@ -125,37 +125,39 @@ inline uint32_t next_corner(uint32_t c) {
   return c % 3 == 2 ? c - 2 : c + 1;
 }
 
-}  // namespace
+// The mesh's corners: corner c, of triangle c / 3, is at vertex idx[c].
+struct Corners {
+  const Mesh* mesh = nullptr;
+  const uint32_t* idx = nullptr;
+  size_t vertex_count = 0;
+  size_t triangle_count = 0;
+  size_t corner_count = 0;
+};
 
-DiagnosisReport diagnose(const Mesh& mesh) {
-  DiagnosisReport report;
-  const size_t vertex_count = mesh.positions.size();
-  const size_t triangle_count = mesh.triangle_count();
-  const size_t corner_count = 3 * triangle_count;
-  const uint32_t* idx = mesh.indices.data();
-  assert(corner_count < kNone && "diagnose: more than 2^32 corners");
-  assert(std::all_of(idx, idx + corner_count, [&](uint32_t i) { return i < vertex_count; }));
+// Each referenced vertex's component.
+struct VertexComponents {
+  std::vector<uint8_t> referenced;
+  std::vector<uint32_t> component;  // kNone where not referenced
+};
 
-  report.vertices = vertex_count;
-  report.triangles = triangle_count;
-  report.degenerate_triangles = count_degenerate_triangles(mesh);
-  report.bbox = bounding_box(mesh);
-  report.triangle_component.assign(triangle_count, 0);
-
-  // ---- components: vertices joined by the triangles that use them --------------------------
-  DisjointSets vertex_sets(vertex_count);
-  std::vector<uint8_t> referenced(vertex_count, 0);
-  for (size_t t = 0; t < triangle_count; ++t) {
+/// Components: vertices joined by the triangles that use them. Numbers them largest first and
+/// fills the report's component list and triangle_component.
+VertexComponents find_components(const Corners& m, DiagnosisReport* report) {
+  const uint32_t* idx = m.idx;
+  DisjointSets vertex_sets(m.vertex_count);
+  VertexComponents out;
+  out.referenced.assign(m.vertex_count, 0);
+  for (size_t t = 0; t < m.triangle_count; ++t) {
     const uint32_t a = idx[3 * t], b = idx[3 * t + 1], c = idx[3 * t + 2];
     vertex_sets.unite(a, b);
     vertex_sets.unite(a, c);
-    referenced[a] = referenced[b] = referenced[c] = 1;
+    out.referenced[a] = out.referenced[b] = out.referenced[c] = 1;
   }
   // Provisional ids in order of first triangle, then sorted largest first (stable: ties keep the
   // order of their first triangle).
-  std::vector<uint32_t> provisional(vertex_count, kNone);
+  std::vector<uint32_t> provisional(m.vertex_count, kNone);
   std::vector<size_t> provisional_triangles;
-  for (size_t t = 0; t < triangle_count; ++t) {
+  for (size_t t = 0; t < m.triangle_count; ++t) {
     uint32_t root = vertex_sets.find(idx[3 * t]);
     if (provisional[root] == kNone) {
       provisional[root] = static_cast<uint32_t>(provisional_triangles.size());
@@ -172,21 +174,24 @@ DiagnosisReport diagnose(const Mesh& mesh) {
   std::vector<uint32_t> rank(component_count);
   for (size_t i = 0; i < component_count; ++i) rank[order[i]] = static_cast<uint32_t>(i);
 
-  std::vector<uint32_t> vertex_component(vertex_count, kNone);
-  for (size_t v = 0; v < vertex_count; ++v) {
-    if (referenced[v]) vertex_component[v] = rank[provisional[vertex_sets.find(uint32_t(v))]];
+  out.component.assign(m.vertex_count, kNone);
+  for (size_t v = 0; v < m.vertex_count; ++v) {
+    if (out.referenced[v]) out.component[v] = rank[provisional[vertex_sets.find(uint32_t(v))]];
   }
-  for (size_t t = 0; t < triangle_count; ++t) {
-    report.triangle_component[t] = vertex_component[idx[3 * t]];
+  for (size_t t = 0; t < m.triangle_count; ++t) {
+    report->triangle_component[t] = out.component[idx[3 * t]];
   }
-  provisional = {};
-  report.components = component_count;
-  std::vector<ComponentReport>& comps = report.component_reports;
-  comps.resize(component_count);
+  report->components = component_count;
+  report->component_reports.resize(component_count);
+  return out;
+}
 
-  // ---- edges: half-edges bucketed by their smaller vertex, sorted by (larger vertex, id) ----
-  Buckets halfedges = bucket_sort(
-      corner_count, vertex_count,
+/// The half-edges, bucketed by their smaller vertex and sorted by (larger vertex, id); those of
+/// zero length are left out.
+Buckets bucket_halfedges(const Corners& m) {
+  const uint32_t* idx = m.idx;
+  return bucket_sort(
+      m.corner_count, m.vertex_count,
       [&](size_t h) {
         uint32_t a = idx[h], b = idx[next_corner(uint32_t(h))];
         return a == b ? kNone : std::min(a, b);
@@ -195,21 +200,37 @@ DiagnosisReport diagnose(const Mesh& mesh) {
         uint32_t a = idx[h], b = idx[next_corner(uint32_t(h))];
         return (uint64_t{std::max(a, b)} << 32) | h;
       });
+}
 
-  // Corners at the same vertex are joined across every manifold edge: the sets are the fans.
-  DisjointSets fans(corner_count);
-  for (size_t t = 0; t < triangle_count; ++t) {  // a repeated index is one corner, not two
+/// The corner sets that become the fans, before any edge joins them: a repeated index is one
+/// corner, not two.
+DisjointSets join_repeated_corners(const Corners& m) {
+  DisjointSets fans(m.corner_count);
+  for (size_t t = 0; t < m.triangle_count; ++t) {
     const uint32_t c = uint32_t(3 * t);
-    if (idx[c] == idx[c + 1]) fans.unite(c, c + 1);
-    if (idx[c + 1] == idx[c + 2]) fans.unite(c + 1, c + 2);
-    if (idx[c] == idx[c + 2]) fans.unite(c, c + 2);
+    if (m.idx[c] == m.idx[c + 1]) fans.unite(c, c + 1);
+    if (m.idx[c + 1] == m.idx[c + 2]) fans.unite(c + 1, c + 2);
+    if (m.idx[c] == m.idx[c + 2]) fans.unite(c, c + 2);
   }
-  auto corner_at = [&](uint32_t h, uint32_t v) { return idx[h] == v ? h : next_corner(h); };
+  return fans;
+}
 
-  std::vector<uint8_t> on_nonmanifold_edge(vertex_count, 0);
-  std::vector<uint32_t> boundary_halfedges;
-  for (size_t lo = 0; lo < vertex_count; ++lo) {
-    const uint64_t* keys = halfedges.keys.data();
+// What the edge scan finds besides the per-component counts.
+struct EdgeScan {
+  std::vector<uint8_t> on_nonmanifold_edge;  // per vertex
+  std::vector<uint32_t> boundary_halfedges;  // one per boundary edge
+};
+
+/// Edges: counts each component's edges by their uses, and joins the corners at the same vertex
+/// across every manifold edge, so that the sets of `fans` are the fans.
+EdgeScan scan_edges(const Corners& m, DisjointSets& fans, DiagnosisReport* report) {
+  const uint32_t* idx = m.idx;
+  const Buckets halfedges = bucket_halfedges(m);
+  auto corner_at = [&](uint32_t h, uint32_t v) { return idx[h] == v ? h : next_corner(h); };
+  EdgeScan out;
+  out.on_nonmanifold_edge.assign(m.vertex_count, 0);
+  const uint64_t* keys = halfedges.keys.data();
+  for (size_t lo = 0; lo < m.vertex_count; ++lo) {
     size_t i = halfedges.offsets[lo];
     const size_t end = halfedges.offsets[lo + 1];
     while (i < end) {
@@ -218,11 +239,11 @@ DiagnosisReport diagnose(const Mesh& mesh) {
       while (j < end && uint32_t(keys[j] >> 32) == hi) ++j;
       const size_t uses = j - i;
       const uint32_t h0 = uint32_t(keys[i]);
-      ComponentReport& comp = comps[report.triangle_component[h0 / 3]];
+      ComponentReport& comp = report->component_reports[report->triangle_component[h0 / 3]];
       ++comp.edges;
       if (uses == 1) {
         ++comp.boundary_edges;
-        boundary_halfedges.push_back(h0);
+        out.boundary_halfedges.push_back(h0);
       } else if (uses == 2) {
         const uint32_t h1 = uint32_t(keys[i + 1]);
         if (idx[h0] == idx[h1]) ++comp.inconsistent_edges;
@@ -231,34 +252,44 @@ DiagnosisReport diagnose(const Mesh& mesh) {
         fans.unite(corner_at(h0, hi), corner_at(h1, hi));
       } else {
         ++comp.nonmanifold_edges;
-        on_nonmanifold_edge[lo] = on_nonmanifold_edge[hi] = 1;
+        out.on_nonmanifold_edge[lo] = out.on_nonmanifold_edge[hi] = 1;
       }
       i = j;
     }
   }
-  halfedges = {};
+  return out;
+}
 
-  // ---- vertices: fans per vertex --------------------------------------------------------------
-  std::vector<uint32_t> fan_count(vertex_count, 0);
-  for (uint32_t c = 0; c < corner_count; ++c) {
-    if (fans.find(c) == c) ++fan_count[idx[c]];
+/// Vertices: counts each component's vertices and non-manifold ones (two fans or more, or on a
+/// non-manifold edge), grows its box, and counts the unreferenced vertices.
+void count_vertices(const Corners& m, DisjointSets& fans, const VertexComponents& vertices,
+                    const EdgeScan& edges, DiagnosisReport* report) {
+  std::vector<uint32_t> fan_count(m.vertex_count, 0);
+  for (uint32_t c = 0; c < m.corner_count; ++c) {
+    if (fans.find(c) == c) ++fan_count[m.idx[c]];
   }
-  for (size_t v = 0; v < vertex_count; ++v) {
-    if (!referenced[v]) {
-      ++report.unreferenced_vertices;
+  for (size_t v = 0; v < m.vertex_count; ++v) {
+    if (!vertices.referenced[v]) {
+      ++report->unreferenced_vertices;
       continue;
     }
-    ComponentReport& comp = comps[vertex_component[v]];
+    ComponentReport& comp = report->component_reports[vertices.component[v]];
     ++comp.vertices;
-    expand(comp.bbox, mesh.positions[v]);
-    if (fan_count[v] > 1 || on_nonmanifold_edge[v]) ++comp.nonmanifold_vertices;
+    expand(comp.bbox, m.mesh->positions[v]);
+    if (fan_count[v] > 1 || edges.on_nonmanifold_edge[v]) ++comp.nonmanifold_vertices;
   }
+}
 
-  // ---- boundary loops: join boundary edges at their ends, within a fan first --------------------
+/// Boundary loops: joins boundary edges at their ends, within a fan first, and counts each
+/// component's loops.
+void count_boundary_loops(const Corners& m, DisjointSets& fans,
+                          const std::vector<uint32_t>& boundary_halfedges,
+                          DiagnosisReport* report) {
+  const uint32_t* idx = m.idx;
   // An end record's key is (fan root << 32 | boundary edge), bucketed by the end's vertex.
   const size_t boundary_count = boundary_halfedges.size();
   Buckets ends = bucket_sort(
-      2 * boundary_count, vertex_count,
+      2 * boundary_count, m.vertex_count,
       [&](size_t e) {
         uint32_t h = boundary_halfedges[e / 2];
         return idx[e % 2 == 0 ? h : next_corner(h)];
@@ -270,7 +301,7 @@ DiagnosisReport diagnose(const Mesh& mesh) {
       });
   DisjointSets loops(boundary_count);
   std::vector<uint32_t> leftover;
-  for (size_t v = 0; v < vertex_count; ++v) {
+  for (size_t v = 0; v < m.vertex_count; ++v) {
     size_t i = ends.offsets[v];
     const size_t end = ends.offsets[v + 1];
     leftover.clear();
@@ -287,36 +318,37 @@ DiagnosisReport diagnose(const Mesh& mesh) {
     for (size_t k = 0; k + 1 < leftover.size(); k += 2) loops.unite(leftover[k], leftover[k + 1]);
   }
   for (uint32_t e = 0; e < boundary_count; ++e) {
-    if (loops.find(e) == e)
-      ++comps[report.triangle_component[boundary_halfedges[e] / 3]].boundary_loops;
+    if (loops.find(e) == e) {
+      ++report->component_reports[report->triangle_component[boundary_halfedges[e] / 3]]
+            .boundary_loops;
+    }
   }
+}
 
-  // ---- geometry: area and signed volume, in double --------------------------------------------
-  for (size_t t = 0; t < triangle_count; ++t) {
-    const Vec3& p = mesh.positions[idx[3 * t]];
-    const Vec3& q = mesh.positions[idx[3 * t + 1]];
-    const Vec3& r = mesh.positions[idx[3 * t + 2]];
-    const double ux = double(q.x) - p.x, uy = double(q.y) - p.y, uz = double(q.z) - p.z;
-    const double vx = double(r.x) - p.x, vy = double(r.y) - p.y, vz = double(r.z) - p.z;
-    const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
-    const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+/// Geometry: each component's and the mesh's area and signed volume, in double.
+void add_geometry(const Corners& m, DiagnosisReport* report) {
+  const std::vector<Vec3>& positions = m.mesh->positions;
+  for (size_t t = 0; t < m.triangle_count; ++t) {
+    const Vec3& p = positions[m.idx[3 * t]];
+    const Vec3& q = positions[m.idx[3 * t + 1]];
+    const Vec3& r = positions[m.idx[3 * t + 2]];
+    const double area = 0.5 * length(triangle_cross(p, q, r));
     // Divergence theorem: the signed volume of the tetrahedron (origin, p, q, r).
-    const double volume = (double(p.x) * (double(q.y) * r.z - double(q.z) * r.y) +
-                           double(p.y) * (double(q.z) * r.x - double(q.x) * r.z) +
-                           double(p.z) * (double(q.x) * r.y - double(q.y) * r.x)) /
-                          6.0;
-    ComponentReport& comp = comps[report.triangle_component[t]];
+    const double volume = dot(to_double(p), cross(to_double(q), to_double(r))) / 6.0;
+    ComponentReport& comp = report->component_reports[report->triangle_component[t]];
     ++comp.triangles;
     comp.area += area;
     comp.volume += volume;
-    report.area += area;
-    report.volume += volume;
+    report->area += area;
+    report->volume += volume;
   }
+}
 
-  // ---- per-component summaries and totals ------------------------------------------------------
+/// Per-component summaries (Euler characteristic, closed, genus) and the mesh's totals.
+void summarise(DiagnosisReport* report) {
   bool every_genus = true;
   long genus_sum = 0;
-  for (ComponentReport& comp : comps) {
+  for (ComponentReport& comp : report->component_reports) {
     comp.euler = long(comp.vertices) - long(comp.edges) + long(comp.triangles);
     comp.closed = comp.boundary_edges == 0 && comp.nonmanifold_edges == 0;
     const long twice_genus = 2 - comp.euler - long(comp.boundary_loops);
@@ -328,18 +360,44 @@ DiagnosisReport diagnose(const Mesh& mesh) {
     if (comp.genus < 0) every_genus = false;
     genus_sum += comp.genus;
 
-    report.edges += comp.edges;
-    report.boundary_edges += comp.boundary_edges;
-    report.boundary_loops += comp.boundary_loops;
-    report.nonmanifold_edges += comp.nonmanifold_edges;
-    report.nonmanifold_vertices += comp.nonmanifold_vertices;
-    report.inconsistent_edges += comp.inconsistent_edges;
+    report->edges += comp.edges;
+    report->boundary_edges += comp.boundary_edges;
+    report->boundary_loops += comp.boundary_loops;
+    report->nonmanifold_edges += comp.nonmanifold_edges;
+    report->nonmanifold_vertices += comp.nonmanifold_vertices;
+    report->inconsistent_edges += comp.inconsistent_edges;
   }
-  report.euler = long(report.vertices) - long(report.edges) + long(report.triangles);
-  report.genus = every_genus ? genus_sum : -1;
+  report->euler = long(report->vertices) - long(report->edges) + long(report->triangles);
+  report->genus = every_genus ? genus_sum : -1;
   // An empty mesh bounds nothing: it is neither closed nor oriented.
-  report.closed = triangle_count > 0 && report.boundary_edges == 0 && report.nonmanifold_edges == 0;
-  report.oriented = report.closed && report.inconsistent_edges == 0;
+  report->closed =
+      report->triangles > 0 && report->boundary_edges == 0 && report->nonmanifold_edges == 0;
+  report->oriented = report->closed && report->inconsistent_edges == 0;
+}
+
+}  // namespace
+
+DiagnosisReport diagnose(const Mesh& mesh) {
+  const Corners m{&mesh, mesh.indices.data(), mesh.positions.size(), mesh.triangle_count(),
+                  3 * mesh.triangle_count()};
+  assert(m.corner_count < kNone && "diagnose: more than 2^32 corners");
+  assert(
+      std::all_of(m.idx, m.idx + m.corner_count, [&](uint32_t i) { return i < m.vertex_count; }));
+
+  DiagnosisReport report;
+  report.vertices = m.vertex_count;
+  report.triangles = m.triangle_count;
+  report.degenerate_triangles = count_degenerate_triangles(mesh);
+  report.bbox = bounding_box(mesh);
+  report.triangle_component.assign(m.triangle_count, 0);
+
+  const VertexComponents vertices = find_components(m, &report);
+  DisjointSets fans = join_repeated_corners(m);
+  const EdgeScan edges = scan_edges(m, fans, &report);
+  count_vertices(m, fans, vertices, edges, &report);
+  count_boundary_loops(m, fans, edges.boundary_halfedges, &report);
+  add_geometry(m, &report);
+  summarise(&report);
   return report;
 }
 

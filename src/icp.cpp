@@ -8,7 +8,6 @@
 
 #include <Eigen/Dense>
 
-
 // Based on: S. Umeyama, "Least-squares estimation of transformation parameters between two point
 // patterns", IEEE PAMI 13(4), 1991 (rotation from the SVD of the cross-covariance, the sign of its
 // smallest singular direction chosen for the determinant, scale from the singular values);

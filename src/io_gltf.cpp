@@ -324,7 +324,6 @@ Status local_matrix(const tinygltf::Node& node, int index, const std::string& so
   return {};
 }
 
-
 // ---- accessors ---------------------------------------------------------------------------------
 
 enum class Role { kPosition, kNormal, kIndices };

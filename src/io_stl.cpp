@@ -7,8 +7,8 @@
 #include <string_view>
 
 #include "core/byte_io.hpp"
-#include "io_internal.hpp"
 #include "core/weld.hpp"
+#include "io_internal.hpp"
 
 // Based on: the STL format as 3D Systems defined it (80-byte header, uint32 count, 50-byte
 // records of normal, three vertices and a 2-byte attribute; or "solid ... facet normal ... outer

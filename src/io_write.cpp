@@ -157,12 +157,10 @@ std::string one_line(const std::string& text) {
 
 /// The unit normal of a triangle, computed in double; zero for a zero-area triangle.
 Vec3 facet_normal(const Vec3& a, const Vec3& b, const Vec3& c) {
-  double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
-  double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
-  double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
-  double length = std::sqrt(nx * nx + ny * ny + nz * nz);
-  if (!(length > 0) || !std::isfinite(length)) return {};
-  return {float(nx / length), float(ny / length), float(nz / length)};
+  const Vec3d n = triangle_cross(a, b, c);
+  const double l = length(n);
+  if (!(l > 0) || !std::isfinite(l)) return {};
+  return {float(n.x / l), float(n.y / l), float(n.z / l)};
 }
 
 void write_stl(AtomicFile& out, const Mesh& mesh) {

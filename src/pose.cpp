@@ -10,7 +10,6 @@
 
 #include <Eigen/Dense>
 
-
 // Based on: Zhou, Jia & Su (2018), eq. (5)-(9) (translation, scale and symmetry alignment);
 // D. Vranic, D. Saupe, "3D shape descriptor based on 3D Fourier transform" / "continuous PCA"
 // (2001): principal axes from the covariance of the surface, integrated exactly over each triangle

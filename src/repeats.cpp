@@ -319,7 +319,7 @@ uint64_t hausdorff_samples(const Mesh& sampled, const RepeatOptions& options) {
 
 // Samples for the coarse ICP, a side, and how far beyond the tolerance its fit may be.
 constexpr size_t kCoarseSamples = 64;
-// Prototypes verified together at most (their work independent, see find_repeats_here).
+// Prototypes verified together at most (their work independent, see next_batch).
 constexpr size_t kBatch = 256;
 constexpr double kCoarseReject = 4.0;
 
@@ -338,145 +338,192 @@ struct Verdict {
   RepeatMember member;
 };
 
-// ICP from the pose alignment (or, for a copy with the same vertex list, the fit of vertex i to
-// vertex i), then the symmetric Hausdorff distance between the moved prototype and the member.
-Verdict verify(const Prototype& p, const Mesh& m_mesh, const Component& m, size_t m_index,
-               const PairVoxels& voxels, const RepeatOptions& options) {
-  const Mesh& p_mesh = *p.mesh;
-  const DistanceQuery& p_query = *p.query;
-  Verdict verdict;
-  verdict.verified = true;
-  // The codec's bound, but never below what the stored coordinates' own rounding allows: two
-  // copies of one shape, each rounded to its decimal grid, differ by up to sqrt(3) / 2 of the
-  // grid steps (the prototype's scaled) however exact the copy.
+// The member's side of one verification.
+struct Member {
+  const Mesh* mesh = nullptr;
+  const Component* component = nullptr;
+  const DistanceQuery* query = nullptr;
+};
+
+// A fit of the prototype onto a member, and the pose alternative it came from.
+struct Fit {
+  detail::Similarity transform;
+  Candidate used;
+};
+
+/// The tolerance member m is verified against: the codec's bound, but never below what the stored
+/// coordinates' own rounding allows: two copies of one shape, each rounded to its decimal grid,
+/// differ by up to sqrt(3) / 2 of the grid steps (the prototype's scaled) however exact the copy.
+double member_tolerance(const Prototype& p, const Mesh& m_mesh, const Component& m,
+                        const RepeatOptions& options) {
   double tolerance = repeat_tolerance(m_mesh, options);
   if (options.tolerance == 0) {
     const double s = options.allow_scale ? m.pose.scale / p.component->pose.scale : 1.0;
     tolerance =
         std::max(tolerance, 0.5 * std::sqrt(3.0) * (s * p.component->resolution + m.resolution));
   }
-  Result<DistanceQuery> built = DistanceQuery::build(m_mesh);
-  if (!built.ok()) return verdict;
-  const DistanceQuery& m_query = built.value();
+  return tolerance;
+}
 
-  detail::Similarity transform;
-  Candidate used = voxels.passing.front();
-  bool found = false;
-  // Fast path: a copy that kept its vertex order (what moving, rotating or mirroring a file's
-  // vertices gives) fits vertex to vertex exactly, without closest points.
-  if (p_mesh.vertex_count() == m_mesh.vertex_count() &&
-      p_mesh.triangle_count() == m_mesh.triangle_count()) {
-    std::vector<Vec3d> from, to;
-    from.reserve(p_mesh.vertex_count());
-    to.reserve(p_mesh.vertex_count());
-    for (size_t v = 0; v < p_mesh.vertex_count(); ++v) {
-      from.push_back(to_double(p_mesh.positions[v]));
-      to.push_back(to_double(m_mesh.positions[v]));
-    }
-    detail::Similarity fit;
-    if (detail::fit_similarity(from, to, options.allow_mirror ? 0 : 1, options.allow_scale, &fit)) {
-      double worst = 0;
-      for (size_t v = 0; v < from.size(); ++v) {
-        worst = std::max(worst, std::sqrt(squared_length(detail::apply(fit, from[v]) - to[v])));
-      }
-      if (worst <= tolerance) {
-        transform = fit;
-        found = true;
-      }
-    }
+/// The fast path: a copy that kept its vertex order (what moving, rotating or mirroring a file's
+/// vertices gives) fits vertex to vertex exactly, without closest points. True, with *out set,
+/// when the fit of vertex i to vertex i takes every vertex within `tolerance` of its partner.
+bool fit_vertex_order(const Mesh& p_mesh, const Mesh& m_mesh, double tolerance,
+                      const RepeatOptions& options, detail::Similarity* out) {
+  if (p_mesh.vertex_count() != m_mesh.vertex_count() ||
+      p_mesh.triangle_count() != m_mesh.triangle_count()) {
+    return false;
   }
-  if (!found) {
-    // Coarse to fine: ICP on a few samples first; a pose alternative whose coarse fit leaves a
-    // sample farther than kCoarseReject tolerances from the other surface is dropped (the
-    // distances are exact distances of samples, so the Hausdorff distance is at least that),
-    // which spares the full ICP on look-alikes.
-    const std::vector<Vec3d> m_coarse = vertex_samples(m_mesh, kCoarseSamples);
-    const std::vector<Vec3d> m_samples = vertex_samples(m_mesh, options.icp_samples);
-    const detail::IcpSide p_coarse_side{&p_mesh, &p.coarse, p.query};
-    const detail::IcpSide m_coarse_side{&m_mesh, &m_coarse, &m_query};
-    // Where more alternatives pass than ICP will try (turns about an ambiguous axis), the ones
-    // that line the vertices up best go first.
-    std::vector<Candidate> tried = voxels.passing;
-    if (tried.size() > kTried) {
-      std::vector<std::pair<double, size_t>> ranked;
-      for (size_t k = 0; k < tried.size(); ++k) {
-        const detail::Similarity start =
-            pose_transform(p.component->pose, m.pose, tried[k].turn, options.allow_scale);
-        ranked.push_back({detail::corner_residual(p_coarse_side, m_coarse_side, start), k});
-      }
-      std::sort(ranked.begin(), ranked.end());
-      std::vector<Candidate> best_ranked;
-      for (size_t k = 0; k < kTried; ++k) best_ranked.push_back(tried[ranked[k].second]);
-      tried = std::move(best_ranked);
-    }
-    detail::IcpResult best;
-    bool have = false;
-    for (const Candidate& c : tried) {
-      const detail::IcpResult coarse =
-          detail::icp(p_coarse_side, m_coarse_side,
-                      pose_transform(p.component->pose, m.pose, c.turn, options.allow_scale),
-                      options.allow_scale, options.icp_iterations, kCoarseReject * tolerance);
-      if (coarse.gave_up || coarse.max > kCoarseReject * tolerance) continue;
-      const detail::IcpResult r =
-          detail::icp({&p_mesh, &p.samples, p.query}, {&m_mesh, &m_samples, &m_query},
-                      coarse.transform, options.allow_scale, options.icp_iterations);
-      if (!have || r.rms < best.rms) {
-        best = r;
-        used = c;
-        have = true;
-      }
-      if (best.max <= tolerance) break;
-    }
-    // The ICP's distances are exact distances of sample points to the other surface: when one
-    // of them exceeds the tolerance, so does the Hausdorff distance.
-    if (!have || best.max > tolerance) return verdict;
-    transform = best.transform;
+  std::vector<Vec3d> from, to;
+  from.reserve(p_mesh.vertex_count());
+  to.reserve(p_mesh.vertex_count());
+  for (size_t v = 0; v < p_mesh.vertex_count(); ++v) {
+    from.push_back(to_double(p_mesh.positions[v]));
+    to.push_back(to_double(m_mesh.positions[v]));
   }
+  detail::Similarity fit;
+  if (!detail::fit_similarity(from, to, options.allow_mirror ? 0 : 1, options.allow_scale, &fit)) {
+    return false;
+  }
+  double worst = 0;
+  for (size_t v = 0; v < from.size(); ++v) {
+    worst = std::max(worst, std::sqrt(squared_length(detail::apply(fit, from[v]) - to[v])));
+  }
+  if (worst <= tolerance) {
+    *out = fit;
+    return true;
+  }
+  return false;
+}
 
+/// The pose alternatives ICP starts from, in the order it tries them. Where more pass than ICP
+/// will try (turns about an ambiguous axis), the ones that line the vertices up best go first.
+std::vector<Candidate> alternatives_to_try(const Prototype& p, const Member& m,
+                                           const detail::IcpSide& p_coarse,
+                                           const detail::IcpSide& m_coarse,
+                                           const std::vector<Candidate>& passing,
+                                           bool allow_scale) {
+  if (passing.size() <= kTried) return passing;
+  std::vector<std::pair<double, size_t>> ranked;
+  for (size_t k = 0; k < passing.size(); ++k) {
+    const detail::Similarity start =
+        pose_transform(p.component->pose, m.component->pose, passing[k].turn, allow_scale);
+    ranked.push_back({detail::corner_residual(p_coarse, m_coarse, start), k});
+  }
+  std::sort(ranked.begin(), ranked.end());
+  std::vector<Candidate> best_ranked;
+  for (size_t k = 0; k < kTried; ++k) best_ranked.push_back(passing[ranked[k].second]);
+  return best_ranked;
+}
+
+/// ICP from the pose alignment, coarse to fine: ICP on a few samples first; a pose alternative
+/// whose coarse fit leaves a sample farther than kCoarseReject tolerances from the other surface
+/// is dropped (the distances are exact distances of samples, so the Hausdorff distance is at
+/// least that), which spares the full ICP on look-alikes. True, with *fit set, when the best fine
+/// fit leaves every sample within `tolerance`.
+bool fit_icp(const Prototype& p, const Member& m, const PairVoxels& voxels, double tolerance,
+             const RepeatOptions& options, Fit* fit) {
+  const std::vector<Vec3d> m_coarse = vertex_samples(*m.mesh, kCoarseSamples);
+  const std::vector<Vec3d> m_samples = vertex_samples(*m.mesh, options.icp_samples);
+  const detail::IcpSide p_coarse_side{p.mesh, &p.coarse, p.query};
+  const detail::IcpSide m_coarse_side{m.mesh, &m_coarse, m.query};
+  const std::vector<Candidate> tried =
+      alternatives_to_try(p, m, p_coarse_side, m_coarse_side, voxels.passing, options.allow_scale);
+  detail::IcpResult best;
+  bool have = false;
+  for (const Candidate& c : tried) {
+    const detail::IcpResult coarse = detail::icp(
+        p_coarse_side, m_coarse_side,
+        pose_transform(p.component->pose, m.component->pose, c.turn, options.allow_scale),
+        options.allow_scale, options.icp_iterations, kCoarseReject * tolerance);
+    if (coarse.gave_up || coarse.max > kCoarseReject * tolerance) continue;
+    const detail::IcpResult r =
+        detail::icp({p.mesh, &p.samples, p.query}, {m.mesh, &m_samples, m.query}, coarse.transform,
+                    options.allow_scale, options.icp_iterations);
+    if (!have || r.rms < best.rms) {
+      best = r;
+      fit->used = c;
+      have = true;
+    }
+    if (best.max <= tolerance) break;
+  }
+  // The ICP's distances are exact distances of sample points to the other surface: when one
+  // of them exceeds the tolerance, so does the Hausdorff distance.
+  if (!have || best.max > tolerance) return false;
+  fit->transform = best.transform;
+  return true;
+}
+
+/// The symmetric Hausdorff distance between the prototype moved by `transform` and the member,
+/// in the member's units; nothing when either side cannot be measured.
+std::optional<double> moved_hausdorff(const Prototype& p, const Member& m,
+                                      const detail::Similarity& transform,
+                                      const RepeatOptions& options) {
   HausdorffOptions forward_options;
   forward_options.threads = 1;
-  forward_options.samples = hausdorff_samples(p_mesh, options);
+  forward_options.samples = hausdorff_samples(*p.mesh, options);
   HausdorffOptions backward_options = forward_options;
-  backward_options.samples = hausdorff_samples(m_mesh, options);
+  backward_options.samples = hausdorff_samples(*m.mesh, options);
   const double scale = detail::similarity_scale(transform);
   // Forward: the moved prototype sampled against the member. Backward: the member sampled
   // against the prototype, after moving it back; distances scale by the similarity's scale.
   Result<OneSidedDistance> forward =
-      one_sided_distance(moved(p_mesh, transform), m_query, forward_options);
+      one_sided_distance(moved(*p.mesh, transform), *m.query, forward_options);
   Result<OneSidedDistance> backward =
-      one_sided_distance(moved(m_mesh, detail::inverse(transform)), p_query, backward_options);
-  if (!forward.ok() || !backward.ok()) return verdict;
-  const double distance = std::max(forward->max, scale * backward->max);
+      one_sided_distance(moved(*m.mesh, detail::inverse(transform)), *p.query, backward_options);
+  if (!forward.ok() || !backward.ok()) return std::nullopt;
+  return std::max(forward->max, scale * backward->max);
+}
+
+// ICP from the pose alignment (or, for a copy with the same vertex list, the fit of vertex i to
+// vertex i), then the symmetric Hausdorff distance between the moved prototype and the member.
+Verdict verify(const Prototype& p, const Mesh& m_mesh, const Component& m, size_t m_index,
+               const PairVoxels& voxels, const RepeatOptions& options) {
+  Verdict verdict;
+  verdict.verified = true;
+  const double tolerance = member_tolerance(p, m_mesh, m, options);
+  Result<DistanceQuery> built = DistanceQuery::build(m_mesh);
+  if (!built.ok()) return verdict;
+  const Member side{&m_mesh, &m, &built.value()};
+  Fit fit{detail::Similarity{}, voxels.passing.front()};
+  if (!fit_vertex_order(*p.mesh, m_mesh, tolerance, options, &fit.transform) &&
+      !fit_icp(p, side, voxels, tolerance, options, &fit)) {
+    return verdict;
+  }
+  const std::optional<double> distance = moved_hausdorff(p, side, fit.transform, options);
+  if (!distance) return verdict;
 
   RepeatMember& member = verdict.member;
   member.part = m_index;
-  member.matrix = column_major(transform);
-  member.mirror = detail::determinant(transform.linear) < 0;
-  member.scale = scale;
-  member.hausdorff = distance;
+  member.matrix = column_major(fit.transform);
+  member.mirror = detail::determinant(fit.transform.linear) < 0;
+  member.scale = detail::similarity_scale(fit.transform);
+  member.hausdorff = *distance;
   member.tolerance = tolerance;
-  member.phi = used.similarity.phi;
-  member.jaccard = used.similarity.jaccard;
-  verdict.accepted = distance <= tolerance;
+  member.phi = fit.used.similarity.phi;
+  member.jaccard = fit.used.similarity.jaccard;
+  verdict.accepted = *distance <= tolerance;
   return verdict;
 }
 
-Result<RepeatReport> find_repeats_here(const std::vector<Mesh>& components,
-                                       const RepeatOptions& options) {
-  const auto start = Clock::now();
-  RepeatReport report;
-  RepeatCounters& counters = report.counters;
-  RepeatTimings& timings = report.timings;
-  const size_t n = components.size();
-  counters.components = n;
-  counters.pairs_total = n > 1 ? uint64_t(n) * (n - 1) / 2 : 0;
+// What the steps of the search share: the input, the options, every component's pose and
+// voxels, and the greedy order.
+struct Search {
+  const std::vector<Mesh>& meshes;
+  const RepeatOptions& options;
+  std::vector<Component> comps;
+  std::vector<size_t> usable;  // the components with a pose
+  std::vector<size_t> order;   // the greedy order of those: larger area first, ties by index
+  std::vector<size_t> rank;    // each one's place in `order`
+};
 
-  // 1. Pose and voxels of every component.
-  auto stage = Clock::now();
-  std::vector<Component> comps(n);
+/// Step 1: the pose and voxels of every component, in parallel.
+Search pose_components(const std::vector<Mesh>& components, const RepeatOptions& options) {
+  const size_t n = components.size();
+  Search s{components, options, std::vector<Component>(n), {}, {}, {}};
   const detail::PoseOptions pose_options;
   tbb::parallel_for(size_t(0), n, [&](size_t i) {
-    Component& c = comps[i];
+    Component& c = s.comps[i];
     c.usable = detail::compute_pose(components[i], pose_options, &c.pose);
     if (!c.usable) return;
     c.grid = detail::voxelize(components[i], c.pose, detail::kIdentity3);
@@ -487,86 +534,123 @@ Result<RepeatReport> find_repeats_here(const std::vector<Mesh>& components,
                                       options.tolerance == 0 ? std::sqrt(3.0) * c.resolution : 0.0);
     c.epsilon = tolerance / c.pose.scale;
   });
-  std::vector<size_t> usable;
-  for (size_t i = 0; i < n; ++i) {
-    if (comps[i].usable) usable.push_back(i);
+  return s;
+}
+
+/// Sets the usable components, their greedy order and their ranks in it.
+void order_components(Search* s) {
+  const std::vector<Component>& comps = s->comps;
+  for (size_t i = 0; i < comps.size(); ++i) {
+    if (comps[i].usable) s->usable.push_back(i);
   }
-  counters.skipped = n - usable.size();
-  // The greedy order: larger area first, ties by index.
-  std::vector<size_t> order = usable;
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+  s->order = s->usable;
+  std::sort(s->order.begin(), s->order.end(), [&](size_t a, size_t b) {
     if (comps[a].pose.area != comps[b].pose.area) return comps[a].pose.area > comps[b].pose.area;
     return a < b;
   });
-  std::vector<size_t> rank(n, 0);
-  for (size_t k = 0; k < order.size(); ++k) rank[order[k]] = k;
-  timings.pose_ms = ms_since(stage);
+  s->rank.assign(comps.size(), 0);
+  for (size_t k = 0; k < s->order.size(); ++k) s->rank[s->order[k]] = k;
+}
 
-  // 2. Candidates: a grid over the pose descriptor (the two largest normalised moments, in
-  // cells of descriptor_tolerance, and log(area / scale^2), in cells wide enough for
-  // area_tolerance): a pair that can pass the descriptor test lies in neighbouring cells, so
-  // only those pairs are looked at.
-  stage = Clock::now();
-  using Cell = std::array<int64_t, 3>;
-  const double moment_cell = std::max(options.descriptor_tolerance, 1e-12);
-  const double area_cell =
-      options.area_tolerance < 1 ? std::max(-std::log1p(-options.area_tolerance), 1e-12) : 0.0;
-  auto cell_of = [&](const Component& c) -> Cell {
+using Cell = std::array<int64_t, 3>;
+
+// Step 2's grid over the pose descriptor: the two largest normalised moments, in cells of
+// descriptor_tolerance, and log(area / scale^2), in cells wide enough for area_tolerance. A pair
+// that can pass the descriptor test lies in neighbouring cells, so only those pairs are looked at.
+struct DescriptorGrid {
+  double moment_cell = 0;
+  double area_cell = 0;                        // 0 (one layer) for an area_tolerance of 1 or more
+  std::vector<std::pair<Cell, size_t>> cells;  // (cell, component), sorted
+
+  Cell cell_of(const Component& c) const {
     return {int64_t(std::floor(c.pose.moments[0] / moment_cell)),
             int64_t(std::floor(c.pose.moments[1] / moment_cell)),
             area_cell > 0 ? int64_t(std::floor(std::log(c.shape_area) / area_cell)) : 0};
-  };
-  std::vector<std::pair<Cell, size_t>> cells;
-  cells.reserve(usable.size());
-  for (size_t i : usable) cells.push_back({cell_of(comps[i]), i});
-  std::sort(cells.begin(), cells.end());
-  const size_t k_count = usable.size();
-  std::vector<std::vector<size_t>> cell_pairs(k_count);  // partners j > usable[a]
-  std::vector<uint64_t> considered(k_count, 0), descriptor(k_count, 0);
-  tbb::parallel_for(size_t(0), k_count, [&](size_t a) {
-    const size_t i = usable[a];
-    const Component& ca = comps[i];
-    const Cell home = cell_of(ca);
-    for (int64_t d0 = -1; d0 <= 1; ++d0) {
-      for (int64_t d1 = -1; d1 <= 1; ++d1) {
-        for (int64_t d2 = -1; d2 <= 1; ++d2) {
-          const Cell cell = {home[0] + d0, home[1] + d1, home[2] + d2};
-          auto first =
-              std::lower_bound(cells.begin(), cells.end(), std::make_pair(cell, size_t(0)));
-          for (auto it = first; it != cells.end() && it->first == cell; ++it) {
-            const size_t j = it->second;
-            if (j <= i) continue;
-            const Component& cb = comps[j];
-            ++considered[a];
-            const double slack = candidate_slack(ca, cb);
-            const double moment_bound = std::min(options.descriptor_tolerance, slack);
-            if (std::fabs(cb.pose.moments[0] - ca.pose.moments[0]) > moment_bound ||
-                std::fabs(cb.pose.moments[1] - ca.pose.moments[1]) > moment_bound ||
-                !close_enough(ca.shape_area, cb.shape_area, options.area_tolerance)) {
-              continue;
-            }
-            if (!options.allow_scale &&
-                !close_enough(ca.pose.scale, cb.pose.scale, options.aabb_tolerance)) {
-              continue;
-            }
-            ++descriptor[a];
-            if (!boxes_agree(ca.pose, cb.pose, options.aabb_tolerance, slack)) continue;
-            cell_pairs[a].push_back(j);
-          }
+  }
+};
+
+/// The descriptor grid with every usable component filed in its cell.
+DescriptorGrid descriptor_grid(const Search& s) {
+  DescriptorGrid grid;
+  grid.moment_cell = std::max(s.options.descriptor_tolerance, 1e-12);
+  grid.area_cell =
+      s.options.area_tolerance < 1 ? std::max(-std::log1p(-s.options.area_tolerance), 1e-12) : 0.0;
+  grid.cells.reserve(s.usable.size());
+  for (size_t i : s.usable) grid.cells.push_back({grid.cell_of(s.comps[i]), i});
+  std::sort(grid.cells.begin(), grid.cells.end());
+  return grid;
+}
+
+// How far a pair gets through the candidate tests.
+enum class PairTest { kFailsDescriptor, kFailsBox, kPasses };
+
+/// The descriptor test (moments, shape area, and the scale unless scaling is allowed), then the
+/// normalised boxes (the paper's step 1).
+PairTest test_pair(const Component& ca, const Component& cb, const RepeatOptions& options) {
+  const double slack = candidate_slack(ca, cb);
+  const double moment_bound = std::min(options.descriptor_tolerance, slack);
+  if (std::fabs(cb.pose.moments[0] - ca.pose.moments[0]) > moment_bound ||
+      std::fabs(cb.pose.moments[1] - ca.pose.moments[1]) > moment_bound ||
+      !close_enough(ca.shape_area, cb.shape_area, options.area_tolerance)) {
+    return PairTest::kFailsDescriptor;
+  }
+  if (!options.allow_scale && !close_enough(ca.pose.scale, cb.pose.scale, options.aabb_tolerance)) {
+    return PairTest::kFailsDescriptor;
+  }
+  if (!boxes_agree(ca.pose, cb.pose, options.aabb_tolerance, slack)) return PairTest::kFailsBox;
+  return PairTest::kPasses;
+}
+
+// One component's candidate partners j > i, with the pairs it looked at and those that passed
+// the descriptor test.
+struct Neighbours {
+  std::vector<size_t> partners;
+  uint64_t considered = 0;
+  uint64_t descriptor = 0;
+};
+
+/// The candidates of component i among the 27 cells around its own.
+Neighbours scan_neighbours(const Search& s, const DescriptorGrid& grid, size_t i) {
+  Neighbours out;
+  const Component& ca = s.comps[i];
+  const Cell home = grid.cell_of(ca);
+  for (int64_t d0 = -1; d0 <= 1; ++d0) {
+    for (int64_t d1 = -1; d1 <= 1; ++d1) {
+      for (int64_t d2 = -1; d2 <= 1; ++d2) {
+        const Cell cell = {home[0] + d0, home[1] + d1, home[2] + d2};
+        auto first =
+            std::lower_bound(grid.cells.begin(), grid.cells.end(), std::make_pair(cell, size_t(0)));
+        for (auto it = first; it != grid.cells.end() && it->first == cell; ++it) {
+          const size_t j = it->second;
+          if (j <= i) continue;
+          ++out.considered;
+          const PairTest test = test_pair(ca, s.comps[j], s.options);
+          if (test != PairTest::kFailsDescriptor) ++out.descriptor;
+          if (test == PairTest::kPasses) out.partners.push_back(j);
         }
       }
     }
-  });
-  // Each pair is filed under the one that comes first in the greedy order (its possible
-  // prototype), partners in greedy order.
-  std::vector<std::vector<size_t>> partners(n);
-  for (size_t a = 0; a < k_count; ++a) {
-    counters.pairs_considered += considered[a];
-    counters.pairs_descriptor += descriptor[a];
-    counters.pairs_aabb += cell_pairs[a].size();
-    for (size_t j : cell_pairs[a]) {
-      const size_t i = usable[a];
-      if (rank[i] < rank[j]) {
+  }
+  return out;
+}
+
+using Partners = std::vector<std::vector<size_t>>;
+
+/// Step 2: the candidate pairs, found in parallel. Each pair is filed under the one that comes
+/// first in the greedy order (its possible prototype), partners in greedy order.
+Partners candidate_partners(const Search& s, RepeatCounters* counters) {
+  const DescriptorGrid grid = descriptor_grid(s);
+  std::vector<Neighbours> found(s.usable.size());
+  tbb::parallel_for(size_t(0), s.usable.size(),
+                    [&](size_t a) { found[a] = scan_neighbours(s, grid, s.usable[a]); });
+  Partners partners(s.comps.size());
+  for (size_t a = 0; a < found.size(); ++a) {
+    counters->pairs_considered += found[a].considered;
+    counters->pairs_descriptor += found[a].descriptor;
+    counters->pairs_aabb += found[a].partners.size();
+    for (size_t j : found[a].partners) {
+      const size_t i = s.usable[a];
+      if (s.rank[i] < s.rank[j]) {
         partners[i].push_back(j);
       } else {
         partners[j].push_back(i);
@@ -574,144 +658,208 @@ Result<RepeatReport> find_repeats_here(const std::vector<Mesh>& components,
     }
   }
   for (std::vector<size_t>& list : partners) {
-    std::sort(list.begin(), list.end(), [&](size_t a, size_t b) { return rank[a] < rank[b]; });
+    std::sort(list.begin(), list.end(), [&](size_t a, size_t b) { return s.rank[a] < s.rank[b]; });
   }
-  cell_pairs.clear();
-  timings.candidates_ms = ms_since(stage);
+  return partners;
+}
 
-  // 3. Greedy grouping with lazy voxel comparison and verification. Prototypes are taken in
-  // batches whose work is independent (no prototype among another's open partners, no partner
-  // shared), so that the batch runs in parallel and gives exactly what one at a time gives.
-  std::vector<char> assigned(n, 0), touched(n, 0);
-  size_t next = 0;
-  while (next < order.size()) {
-    struct Job {
-      size_t prototype;
-      std::vector<size_t> open;  // unassigned partners
-      std::vector<PairVoxels> voxels;
-      std::vector<size_t> passing;  // indices into open
-      std::optional<DistanceQuery> query;
-      Prototype data;
-      std::vector<Verdict> verdicts;
-    };
-    std::vector<Job> batch;
-    while (next < order.size() && batch.size() < kBatch) {
-      const size_t p = order[next];
-      std::vector<size_t> open;
-      if (!assigned[p]) {
-        for (size_t j : partners[p]) {
-          if (!assigned[j]) open.push_back(j);
-        }
-      }
-      if (open.empty()) {  // nothing to do, now or later
-        ++next;
-        continue;
-      }
-      bool conflict = touched[p] != 0;
-      for (size_t j : open) conflict = conflict || touched[j] != 0;
-      if (conflict) break;
-      touched[p] = 1;
-      for (size_t j : open) touched[j] = 1;
-      batch.push_back({p, std::move(open), {}, {}, std::nullopt, {}, {}});
-      ++next;
-    }
+// One prototype's work in a batch.
+struct Job {
+  size_t prototype;
+  std::vector<size_t> open;  // unassigned partners
+  std::vector<PairVoxels> voxels;
+  std::vector<size_t> passing;  // indices into open
+  std::optional<DistanceQuery> query;
+  Prototype data;
+  std::vector<Verdict> verdicts;
+};
 
-    // Voxel similarity of every (prototype, partner) pair of the batch.
-    stage = Clock::now();
-    std::vector<std::pair<size_t, size_t>> pairs;  // (job, index in its open list)
-    for (size_t b = 0; b < batch.size(); ++b) {
-      batch[b].voxels.resize(batch[b].open.size());
-      for (size_t k = 0; k < batch[b].open.size(); ++k) pairs.push_back({b, k});
-    }
-    tbb::parallel_for(size_t(0), pairs.size(), [&](size_t q) {
-      Job& job = batch[pairs[q].first];
-      const size_t j = job.open[pairs[q].second];
-      job.voxels[pairs[q].second] =
-          compare_voxels(components[j], comps[job.prototype], comps[j], options);
-    });
-    for (Job& job : batch) {
-      for (size_t k = 0; k < job.open.size(); ++k) {
-        counters.pose_alternatives += job.voxels[k].alternatives;
-        if (!job.voxels[k].passing.empty()) job.passing.push_back(k);
-      }
-      counters.pairs_phi_evaluated += job.open.size();
-      counters.pairs_phi += job.passing.size();
-    }
-    timings.phi_ms += ms_since(stage);
+// Where the greedy grouping stands.
+struct Grouping {
+  std::vector<char> assigned;  // a prototype or member of a group already
+  std::vector<char> touched;   // the prototype or an open partner of a job in the batch
+  size_t next = 0;             // the next prototype to look at, in the greedy order
+};
 
+/// Step 3 takes prototypes in batches whose work is independent (no prototype among another's
+/// open partners, no partner shared), so that the batch runs in parallel and gives exactly what
+/// one at a time gives. The next such batch, from g->next on.
+std::vector<Job> next_batch(const Search& s, const Partners& partners, Grouping* g) {
+  std::vector<Job> batch;
+  while (g->next < s.order.size() && batch.size() < kBatch) {
+    const size_t p = s.order[g->next];
+    std::vector<size_t> open;
+    if (!g->assigned[p]) {
+      for (size_t j : partners[p]) {
+        if (!g->assigned[j]) open.push_back(j);
+      }
+    }
+    if (open.empty()) {  // nothing to do, now or later
+      ++g->next;
+      continue;
+    }
+    bool conflict = g->touched[p] != 0;
+    for (size_t j : open) conflict = conflict || g->touched[j] != 0;
+    if (conflict) break;
+    g->touched[p] = 1;
+    for (size_t j : open) g->touched[j] = 1;
+    batch.push_back({p, std::move(open), {}, {}, std::nullopt, {}, {}});
+    ++g->next;
+  }
+  return batch;
+}
+
+/// Voxel similarity of every (prototype, partner) pair of the batch, in parallel; notes the
+/// partners that pass.
+void compare_batch(const Search& s, std::vector<Job>& batch, RepeatCounters* counters) {
+  std::vector<std::pair<size_t, size_t>> pairs;  // (job, index in its open list)
+  for (size_t b = 0; b < batch.size(); ++b) {
+    batch[b].voxels.resize(batch[b].open.size());
+    for (size_t k = 0; k < batch[b].open.size(); ++k) pairs.push_back({b, k});
+  }
+  tbb::parallel_for(size_t(0), pairs.size(), [&](size_t q) {
+    Job& job = batch[pairs[q].first];
+    const size_t j = job.open[pairs[q].second];
+    job.voxels[pairs[q].second] =
+        compare_voxels(s.meshes[j], s.comps[job.prototype], s.comps[j], s.options);
+  });
+  for (Job& job : batch) {
+    for (size_t k = 0; k < job.open.size(); ++k) {
+      counters->pose_alternatives += job.voxels[k].alternatives;
+      if (!job.voxels[k].passing.empty()) job.passing.push_back(k);
+    }
+    counters->pairs_phi_evaluated += job.open.size();
+    counters->pairs_phi += job.passing.size();
+  }
+}
+
+/// The distance query and samples of every prototype with a passing partner, in parallel; the
+/// first error in batch order.
+Status build_prototypes(const Search& s, std::vector<Job>& batch) {
+  std::vector<size_t> verifying;
+  for (size_t b = 0; b < batch.size(); ++b) {
+    if (!batch[b].passing.empty()) verifying.push_back(b);
+  }
+  std::vector<Status> built(verifying.size());
+  tbb::parallel_for(size_t(0), verifying.size(), [&](size_t v) {
+    Job& job = batch[verifying[v]];
+    const Mesh& mesh = s.meshes[job.prototype];
+    Result<DistanceQuery> query = DistanceQuery::build(mesh);
+    if (!query.ok()) {
+      built[v] = query.status();
+      return;
+    }
+    job.query.emplace(std::move(query).value());
+    job.data.mesh = &mesh;
+    job.data.component = &s.comps[job.prototype];
+    job.data.query = &*job.query;
+    job.data.samples = vertex_samples(mesh, s.options.icp_samples);
+    job.data.coarse = vertex_samples(mesh, kCoarseSamples);
+    job.verdicts.resize(job.passing.size());
+  });
+  for (const Status& status : built) OSTEON_RETURN_IF_ERROR(status);
+  return Status::ok_status();
+}
+
+/// Verifies every passing pair of the batch, in parallel.
+void verify_batch(const Search& s, std::vector<Job>& batch) {
+  std::vector<std::pair<size_t, size_t>> pairs;  // (job, index in its passing list)
+  for (size_t b = 0; b < batch.size(); ++b) {
+    for (size_t k = 0; k < batch[b].passing.size(); ++k) pairs.push_back({b, k});
+  }
+  tbb::parallel_for(size_t(0), pairs.size(), [&](size_t q) {
+    Job& job = batch[pairs[q].first];
+    const size_t k = job.passing[pairs[q].second];
+    const size_t j = job.open[k];
+    job.verdicts[pairs[q].second] =
+        verify(job.data, s.meshes[j], s.comps[j], j, job.voxels[k], s.options);
+  });
+}
+
+/// Makes a group of each prototype with accepted members, and frees the batch's components for
+/// the next batch.
+void collect_groups(std::vector<Job>& batch, Grouping* g, RepeatReport* report) {
+  RepeatCounters& counters = report->counters;
+  for (Job& job : batch) {
+    RepeatGroup group;
+    group.prototype = job.prototype;
+    for (Verdict& v : job.verdicts) {
+      counters.pairs_verified += v.verified ? 1 : 0;
+      if (v.accepted) {
+        ++counters.pairs_accepted;
+        g->assigned[v.member.part] = 1;
+        group.members.push_back(v.member);
+      } else if (v.verified) {
+        ++counters.rejected_hausdorff;
+      }
+    }
+    g->touched[job.prototype] = 0;
+    for (size_t j : job.open) g->touched[j] = 0;
+    if (group.members.empty()) continue;
+    g->assigned[job.prototype] = 1;
+    report->groups.push_back(std::move(group));
+  }
+}
+
+/// Step 3: greedy grouping, largest first, with lazy voxel comparison and verification.
+Status group_repeats(const Search& s, const Partners& partners, RepeatReport* report) {
+  const size_t n = s.comps.size();
+  Grouping g{std::vector<char>(n, 0), std::vector<char>(n, 0), 0};
+  while (g.next < s.order.size()) {
+    std::vector<Job> batch = next_batch(s, partners, &g);
+    auto stage = Clock::now();
+    compare_batch(s, batch, &report->counters);
+    report->timings.phi_ms += ms_since(stage);
     // Verification: the prototypes' distance queries, then every passing pair.
     stage = Clock::now();
-    std::vector<size_t> verifying;
-    for (size_t b = 0; b < batch.size(); ++b) {
-      if (!batch[b].passing.empty()) verifying.push_back(b);
-    }
-    std::vector<Status> built(verifying.size());
-    tbb::parallel_for(size_t(0), verifying.size(), [&](size_t v) {
-      Job& job = batch[verifying[v]];
-      const Mesh& mesh = components[job.prototype];
-      Result<DistanceQuery> query = DistanceQuery::build(mesh);
-      if (!query.ok()) {
-        built[v] = query.status();
-        return;
-      }
-      job.query.emplace(std::move(query).value());
-      job.data.mesh = &mesh;
-      job.data.component = &comps[job.prototype];
-      job.data.query = &*job.query;
-      job.data.samples = vertex_samples(mesh, options.icp_samples);
-      job.data.coarse = vertex_samples(mesh, kCoarseSamples);
-      job.verdicts.resize(job.passing.size());
-    });
-    for (const Status& status : built) OSTEON_RETURN_IF_ERROR(status);
-    pairs.clear();
-    for (size_t b : verifying) {
-      for (size_t k = 0; k < batch[b].passing.size(); ++k) pairs.push_back({b, k});
-    }
-    tbb::parallel_for(size_t(0), pairs.size(), [&](size_t q) {
-      Job& job = batch[pairs[q].first];
-      const size_t k = job.passing[pairs[q].second];
-      const size_t j = job.open[k];
-      job.verdicts[pairs[q].second] =
-          verify(job.data, components[j], comps[j], j, job.voxels[k], options);
-    });
-    for (Job& job : batch) {
-      RepeatGroup group;
-      group.prototype = job.prototype;
-      for (Verdict& v : job.verdicts) {
-        counters.pairs_verified += v.verified ? 1 : 0;
-        if (v.accepted) {
-          ++counters.pairs_accepted;
-          assigned[v.member.part] = 1;
-          group.members.push_back(v.member);
-        } else if (v.verified) {
-          ++counters.rejected_hausdorff;
-        }
-      }
-      touched[job.prototype] = 0;
-      for (size_t j : job.open) touched[j] = 0;
-      if (group.members.empty()) continue;
-      assigned[job.prototype] = 1;
-      report.groups.push_back(std::move(group));
-    }
-    timings.verify_ms += ms_since(stage);
+    OSTEON_RETURN_IF_ERROR(build_prototypes(s, batch));
+    verify_batch(s, batch);
+    collect_groups(batch, &g, report);
+    report->timings.verify_ms += ms_since(stage);
   }
+  return Status::ok_status();
+}
 
-  std::sort(report.groups.begin(), report.groups.end(),
+/// Groups by prototype, members by part, and what substituting the members saves.
+void summarise(const Search& s, RepeatReport* report) {
+  std::sort(report->groups.begin(), report->groups.end(),
             [](const RepeatGroup& a, const RepeatGroup& b) { return a.prototype < b.prototype; });
-  for (RepeatGroup& g : report.groups) {
+  for (RepeatGroup& g : report->groups) {
     std::sort(g.members.begin(), g.members.end(),
               [](const RepeatMember& a, const RepeatMember& b) { return a.part < b.part; });
     for (const RepeatMember& m : g.members) {
-      const uint64_t triangles = components[m.part].triangle_count();
-      ++report.members;
-      report.triangles_saved += triangles;
+      const uint64_t triangles = s.meshes[m.part].triangle_count();
+      ++report->members;
+      report->triangles_saved += triangles;
       const double bytes =
-          double(triangles) * options.bytes_per_triangle - double(options.bytes_per_instance);
-      if (bytes > 0) report.bytes_saved += uint64_t(std::llround(bytes));
-      report.largest_error = std::max(report.largest_error, m.hausdorff);
+          double(triangles) * s.options.bytes_per_triangle - double(s.options.bytes_per_instance);
+      if (bytes > 0) report->bytes_saved += uint64_t(std::llround(bytes));
+      report->largest_error = std::max(report->largest_error, m.hausdorff);
     }
   }
-  timings.total_ms = ms_since(start);
+}
+
+Result<RepeatReport> find_repeats_here(const std::vector<Mesh>& components,
+                                       const RepeatOptions& options) {
+  const auto start = Clock::now();
+  RepeatReport report;
+  const size_t n = components.size();
+  report.counters.components = n;
+  report.counters.pairs_total = n > 1 ? uint64_t(n) * (n - 1) / 2 : 0;
+
+  auto stage = Clock::now();
+  Search search = pose_components(components, options);
+  order_components(&search);
+  report.counters.skipped = n - search.usable.size();
+  report.timings.pose_ms = ms_since(stage);
+
+  stage = Clock::now();
+  const Partners partners = candidate_partners(search, &report.counters);
+  report.timings.candidates_ms = ms_since(stage);
+
+  OSTEON_RETURN_IF_ERROR(group_repeats(search, partners, &report));
+  summarise(search, &report);
+  report.timings.total_ms = ms_since(start);
   return report;
 }
 

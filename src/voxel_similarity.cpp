@@ -6,7 +6,6 @@
 #include <cmath>
 #include <vector>
 
-
 // Based on: Zhou, Jia & Su (2018), section IV.C step 2, eq. (3)-(4): both components voxelised at
 // N = 4096 voxels, Phi = the share of voxels whose occupancy agrees, Phi > 0.9 for a candidate.
 // The paper does not say how a voxel is filled; here a voxel is occupied when the surface passes

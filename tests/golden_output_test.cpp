@@ -126,7 +126,8 @@ TEST(GoldenOutput, RealStreams) {
   OSTEON_REQUIRE_SHARED_DATA(data);
   const std::pair<const char*, const char*> inputs[] = {
       {"ct-like/hip_mcs.ply", "8154b97a46336c5b35c5c1a3ff9f64e1e873a86f0500c7081be3dd7c93e28322"},
-      {"stity__spl-abdominal-atlas/Data", "5a4331bee6aeca327ba599f8fbdd5d2119510ebdd2a451e8980561e42aa5a73f"}};
+      {"stity__spl-abdominal-atlas/Data",
+       "5a4331bee6aeca327ba599f8fbdd5d2119510ebdd2a451e8980561e42aa5a73f"}};
   for (const auto& [name, expected] : inputs) {
     Result<Scene> scene = read_path(data + "/" + name);
     ASSERT_TRUE(scene.ok()) << scene.status().message();

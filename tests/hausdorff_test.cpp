@@ -26,27 +26,11 @@ namespace {
 
 // ---- helpers -------------------------------------------------------------------------------
 
-Vec3d d3(const Vec3& v) {
-  return {v.x, v.y, v.z};
-}
-Vec3d sub(const Vec3d& a, const Vec3d& b) {
-  return {a.x - b.x, a.y - b.y, a.z - b.z};
-}
-double dot3(const Vec3d& a, const Vec3d& b) {
-  return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-Vec3d cross3(const Vec3d& a, const Vec3d& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double length3(const Vec3d& v) {
-  return std::sqrt(dot3(v, v));
-}
-
 double segment_distance(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
-  Vec3d ab = sub(b, a);
-  double l2 = dot3(ab, ab);
-  double t = l2 > 0 ? std::clamp(dot3(sub(p, a), ab) / l2, 0.0, 1.0) : 0.0;
-  return length3(sub(p, {a.x + t * ab.x, a.y + t * ab.y, a.z + t * ab.z}));
+  Vec3d ab = b - a;
+  double l2 = dot(ab, ab);
+  double t = l2 > 0 ? std::clamp(dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
+  return length(p - Vec3d{a.x + t * ab.x, a.y + t * ab.y, a.z + t * ab.z});
 }
 
 // The brute-force answer: the nearest of the projection onto the plane (when it falls inside,
@@ -54,14 +38,14 @@ double segment_distance(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
 double brute_triangle_distance(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   double best =
       std::min({segment_distance(p, a, b), segment_distance(p, b, c), segment_distance(p, c, a)});
-  Vec3d n = cross3(sub(b, a), sub(c, a));
-  double n2 = dot3(n, n);
+  Vec3d n = cross(b - a, c - a);
+  double n2 = dot(n, n);
   if (n2 > 0) {
-    double s = dot3(sub(p, a), n) / n2;
+    double s = dot(p - a, n) / n2;
     Vec3d q{p.x - s * n.x, p.y - s * n.y, p.z - s * n.z};
-    bool inside = dot3(cross3(sub(b, a), sub(q, a)), n) >= 0 &&
-                  dot3(cross3(sub(c, b), sub(q, b)), n) >= 0 &&
-                  dot3(cross3(sub(a, c), sub(q, c)), n) >= 0;
+    bool inside = dot(cross(b - a, q - a), n) >= 0 &&
+                  dot(cross(c - b, q - b), n) >= 0 &&
+                  dot(cross(a - c, q - c), n) >= 0;
     if (inside) best = std::min(best, std::fabs(s) * std::sqrt(n2));
   }
   return best;
@@ -70,9 +54,9 @@ double brute_triangle_distance(const Vec3d& p, const Vec3d& a, const Vec3d& b, c
 double brute_mesh_distance(const Mesh& mesh, const Vec3d& p) {
   double best = std::numeric_limits<double>::infinity();
   for (size_t t = 0; t < mesh.triangle_count(); ++t) {
-    best = std::min(best, brute_triangle_distance(p, d3(mesh.positions[mesh.indices[3 * t]]),
-                                                  d3(mesh.positions[mesh.indices[3 * t + 1]]),
-                                                  d3(mesh.positions[mesh.indices[3 * t + 2]])));
+    best = std::min(best, brute_triangle_distance(p, to_double(mesh.positions[mesh.indices[3 * t]]),
+                                                  to_double(mesh.positions[mesh.indices[3 * t + 1]]),
+                                                  to_double(mesh.positions[mesh.indices[3 * t + 2]])));
   }
   return best;
 }
@@ -138,7 +122,7 @@ TEST(Hausdorff, PointTriangleDistanceMatchesBruteForce) {
     double expected = brute_triangle_distance(p, a, b, c);
     ASSERT_NEAR(got.distance, expected, 1e-9) << "trial " << trial;
     // The point returned is at that distance and lies on the triangle.
-    EXPECT_NEAR(length3(sub(p, got.point)), got.distance, 1e-9);
+    EXPECT_NEAR(length(p - got.point), got.distance, 1e-9);
     EXPECT_NEAR(brute_triangle_distance(got.point, a, b, c), 0.0, 1e-7) << "trial " << trial;
     EXPECT_EQ(got.triangle, ClosestPoint::kNoTriangle);
   }
@@ -181,7 +165,7 @@ TEST(Hausdorff, DistanceQueryMatchesBruteForceOnEveryCategory) {
       ASSERT_LT(got.triangle, mesh.triangle_count());
       ClosestPoint hinted = query->closest(p, any(rng));
       ASSERT_NEAR(hinted.distance, expected, 1e-9 * std::max(1.0, expected));
-      EXPECT_NEAR(length3(sub(p, got.point)), got.distance, 1e-9 * std::max(1.0, expected));
+      EXPECT_NEAR(length(p - got.point), got.distance, 1e-9 * std::max(1.0, expected));
     }
   }
 }
@@ -210,10 +194,10 @@ TEST(Hausdorff, UnitSphereAgainstSphereOfRadius101) {
   Mesh larger = make_icosphere(5, 1.01f);
   double r_in = 1;
   for (size_t t = 0; t < unit.triangle_count(); ++t) {
-    Vec3d a = d3(unit.positions[unit.indices[3 * t]]);
-    Vec3d n = cross3(sub(d3(unit.positions[unit.indices[3 * t + 1]]), a),
-                     sub(d3(unit.positions[unit.indices[3 * t + 2]]), a));
-    r_in = std::min(r_in, std::fabs(dot3(a, n)) / length3(n));
+    Vec3d a = to_double(unit.positions[unit.indices[3 * t]]);
+    Vec3d n = cross(to_double(unit.positions[unit.indices[3 * t + 1]]) - a,
+                    to_double(unit.positions[unit.indices[3 * t + 2]]) - a);
+    r_in = std::min(r_in, std::fabs(dot(a, n)) / length(n));
   }
   double lower = 1.01 * r_in - 1 - 1e-6, upper = 0.01 + 1e-6;
   ASSERT_GT(lower, 0.0097);  // the tessellation error: at most 3% of the answer

@@ -161,8 +161,7 @@ Vec3 face_normal(const Mesh& mesh, size_t t) {
   const Vec3& a = mesh.positions[mesh.indices[3 * t]];
   const Vec3& b = mesh.positions[mesh.indices[3 * t + 1]];
   const Vec3& c = mesh.positions[mesh.indices[3 * t + 2]];
-  Vec3 u{b.x - a.x, b.y - a.y, b.z - a.z}, v{c.x - a.x, c.y - a.y, c.z - a.z};
-  return {u.y * v.z - u.z * v.y, u.z * v.x - u.x * v.z, u.x * v.y - u.y * v.x};
+  return cross(b - a, c - a);
 }
 
 TEST(IoGltf, GlbAndEmbeddedGltfGiveTheSameTriangle) {

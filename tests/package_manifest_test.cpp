@@ -31,7 +31,8 @@ Result<Manifest> parse_file(const std::string& name) {
 
 TEST(PackageManifest, GoldenManifestsParseOrFailAtTheNamedField) {
   const std::vector<uint8_t> expected_bytes = read_bytes(kGolden + "/expected.json");
-  const nlohmann::json expected = nlohmann::json::parse(expected_bytes.begin(), expected_bytes.end());
+  const nlohmann::json expected =
+      nlohmann::json::parse(expected_bytes.begin(), expected_bytes.end());
   size_t files = 0;
   for (const auto& entry : fs::directory_iterator(kGolden)) {
     const std::string name = entry.path().filename().string();
@@ -85,8 +86,8 @@ TEST(PackageManifest, WriterAndParserAgree) {
   Result<Manifest> original = parse_file("valid_phantom.json");
   ASSERT_TRUE(original.ok()) << original.status().message();
   const std::string text = write_manifest(original.value());
-  Result<Manifest> back = parse_manifest(reinterpret_cast<const uint8_t*>(text.data()),
-                                         text.size(), "manifest.json");
+  Result<Manifest> back =
+      parse_manifest(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "manifest.json");
   ASSERT_TRUE(back.ok()) << back.status().message();
   ASSERT_EQ(back->parts.size(), original->parts.size());
   for (size_t p = 0; p < back->parts.size(); ++p) {

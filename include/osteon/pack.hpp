@@ -74,10 +74,10 @@ struct PackTimings {
 };
 
 struct PackReport {
-  uint64_t input_bytes = 0;   ///< sizes of the files the parts were read from
-  uint64_t output_bytes = 0;  ///< chunk files plus manifest.json
+  uint64_t input_bytes = 0;          ///< sizes of the files the parts were read from
+  uint64_t output_bytes = 0;         ///< chunk files plus manifest.json
   uint64_t manifest_gzip_bytes = 0;  ///< manifest.json.gz (not in output_bytes)
-  uint64_t viewer_bytes = 0;  ///< the viewer's files copied in (not in output_bytes)
+  uint64_t viewer_bytes = 0;         ///< the viewer's files copied in (not in output_bytes)
   size_t viewer_files = 0;
   size_t parts = 0;
   size_t prototypes = 0;  ///< parts whose components are stored (the others are instances)

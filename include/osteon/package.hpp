@@ -44,7 +44,7 @@ struct ManifestComponent {
   uint64_t bytes = 0;
   uint64_t triangles = 0;
   uint64_t vertices = 0;
-  Aabb bounds;  ///< in the prototype's frame
+  Aabb bounds;             ///< in the prototype's frame
   double error_bound = 0;  ///< the largest distance of a decoded vertex from the input, in unit
 };
 
@@ -53,7 +53,7 @@ struct ManifestInstance {
   uint64_t part = 0;
   std::string component;  ///< a ManifestComponent::id
   Mat4 matrix = kIdentityMatrix;
-  bool mirror = false;  ///< determinant3(matrix) < 0: drawn with the winding reversed
+  bool mirror = false;     ///< determinant3(matrix) < 0: drawn with the winding reversed
   double error_bound = 0;  ///< the component's bound plus the repeat substitution's tolerance
 };
 

@@ -76,6 +76,12 @@ inline Vec3d normalize(const Vec3d& v) {
   return (1.0 / std::sqrt(dot(v, v))) * v;
 }
 
+/// (b - a) x (c - a) in double: the normal of triangle (a, b, c) scaled by twice its area (zero for
+/// a degenerate triangle).
+inline Vec3d triangle_cross(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return cross(to_double(b) - to_double(a), to_double(c) - to_double(a));
+}
+
 // ---- 4x4 matrices ----------------------------------------------------------------------------
 
 /// An affine transform, column-major: element (row r, column c) is m[4 * c + r]; the translation

@@ -2,12 +2,12 @@
 #include <cmath>
 #include <cstring>
 
-#include "core/byte_io.hpp"
 #include "codec/codec_internal.hpp"
 #include "codec/connectivity.hpp"
 #include "codec/entropy.hpp"
 #include "codec/geometry.hpp"
 #include "codec/normals.hpp"
+#include "core/byte_io.hpp"
 #include "osteon/codec.hpp"
 
 // The codec's decoder: checks the container (magic, version, checksum, counts) before anything is
@@ -21,10 +21,8 @@ std::vector<Vec3> compute_vertex_normals(const Mesh& mesh) {
   for (size_t t = 0; t < mesh.triangle_count(); ++t) {
     uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
     const Vec3 &p = mesh.positions[a], &q = mesh.positions[b], &r = mesh.positions[c];
-    float ux = q.x - p.x, uy = q.y - p.y, uz = q.z - p.z;
-    float vx = r.x - p.x, vy = r.y - p.y, vz = r.z - p.z;
     // The cross product's length is twice the area: summing it weights by area.
-    Vec3 n{uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+    const Vec3 n = cross(q - p, r - p);
     for (uint32_t v : {a, b, c}) {
       normals[v].x += n.x;
       normals[v].y += n.y;

@@ -4,10 +4,10 @@
 #include <cstring>
 
 #include "codec/codec_internal.hpp"
-#include "core/byte_io.hpp"
 #include "codec/connectivity.hpp"
 #include "codec/geometry.hpp"
 #include "codec/normals.hpp"
+#include "core/byte_io.hpp"
 #include "osteon/codec.hpp"
 
 // The codec's encoder: cleans the mesh, quantizes it, codes connectivity then geometry in the

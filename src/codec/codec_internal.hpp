@@ -5,8 +5,9 @@
 #include <cstddef>
 #include <cstdint>
 
-// What the codec's container encoder (src/codec/codec_encode.cpp) and decoder (src/codec/codec_decode.cpp)
-// share: the header's constants and the checksum. docs/FORMAT.md specifies every byte.
+// What the codec's container encoder (src/codec/codec_encode.cpp) and decoder
+// (src/codec/codec_decode.cpp) share: the header's constants and the checksum. docs/FORMAT.md
+// specifies every byte.
 
 namespace osteon::detail {
 

@@ -8,8 +8,9 @@
 #include "core/byte_io.hpp"
 #include "osteon/status.hpp"
 
-// The connectivity stage of the codec (src/codec/edgebreaker_encode.cpp, src/codec/edgebreaker_decode.cpp,
-// src/corner_table.*): any triangle list in, the same triangles out, vertices renumbered.
+// The connectivity stage of the codec (src/codec/edgebreaker_encode.cpp,
+// src/codec/edgebreaker_decode.cpp, src/corner_table.*): any triangle list in, the same triangles
+// out, vertices renumbered.
 
 namespace osteon::detail {
 

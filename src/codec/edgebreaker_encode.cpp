@@ -270,7 +270,7 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   for (size_t i = 0; i < events.size(); ++i) {
     writer.write_varint(i == 0 ? events[i].split : events[i].split - events[i - 1].split - 1);
     writer.write_varint((static_cast<uint64_t>(events[i].split - 1 - events[i].source) << 1) |
-                           events[i].edge);
+                        events[i].edge);
   }
   auto put_ids = [&](const std::vector<uint32_t>& ids) {
     writer.write_varint(ids.size());

@@ -9,9 +9,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/byte_io.hpp"
 #include "codec/connectivity.hpp"
 #include "codec/corner_table.hpp"
+#include "core/byte_io.hpp"
 #include "osteon/status.hpp"
 
 // What edgebreaker_encode.cpp and edgebreaker_decode.cpp share: the CLERS alphabet, the symbol

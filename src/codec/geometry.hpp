@@ -5,18 +5,18 @@
 #include <string>
 #include <vector>
 
-#include "core/byte_io.hpp"
 #include "codec/connectivity.hpp"
+#include "core/byte_io.hpp"
 #include "osteon/codec.hpp"
 #include "osteon/mesh.hpp"
 #include "osteon/status.hpp"
 
-// The geometry stage of the codec (src/codec/quantize.cpp, src/codec/parallelogram.cpp): positions on a grid,
-// predicted in vertex order from already-decoded neighbours, residuals entropy-coded. Both sides
-// run on the same decoded connectivity (connectivity.hpp's NewestTriangles: each triangle filed
-// under its newest vertex, with the vertex across from it), so the encoder needs nothing from
-// the connectivity coder beyond what its decoder hands the geometry decoder, and the vertex
-// order.
+// The geometry stage of the codec (src/codec/quantize.cpp, src/codec/parallelogram.cpp): positions
+// on a grid, predicted in vertex order from already-decoded neighbours, residuals entropy-coded.
+// Both sides run on the same decoded connectivity (connectivity.hpp's NewestTriangles: each
+// triangle filed under its newest vertex, with the vertex across from it), so the encoder needs
+// nothing from the connectivity coder beyond what its decoder hands the geometry decoder, and the
+// vertex order.
 
 namespace osteon::detail {
 

@@ -51,14 +51,14 @@ std::vector<Octahedral> predictions(const std::vector<uint32_t>& indices,
     const int32_t* a = &q.xyz[3 * size_t{indices[t]}];
     const int32_t* b = &q.xyz[3 * size_t{indices[t + 1]}];
     const int32_t* c = &q.xyz[3 * size_t{indices[t + 2]}];
-    double ux = double(b[0]) - a[0], uy = double(b[1]) - a[1], uz = double(b[2]) - a[2];
-    double vx = double(c[0]) - a[0], vy = double(c[1]) - a[1], vz = double(c[2]) - a[2];
-    double n[3] = {uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx};
+    const Vec3d u{double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
+    const Vec3d v{double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
+    const Vec3d n = cross(u, v);
     for (int k = 0; k < 3; ++k) {
       double* s = &sum[3 * size_t{indices[t + k]}];
-      s[0] += n[0];
-      s[1] += n[1];
-      s[2] += n[2];
+      s[0] += n.x;
+      s[1] += n.y;
+      s[2] += n.z;
     }
   }
   std::vector<Octahedral> out(vertex_count);

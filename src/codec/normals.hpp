@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "core/byte_io.hpp"
 #include "codec/geometry.hpp"
+#include "core/byte_io.hpp"
 #include "osteon/mesh.hpp"
 #include "osteon/status.hpp"
 

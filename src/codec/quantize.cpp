@@ -62,7 +62,6 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
 
 namespace detail {
 
-
 QuantizedPositions quantize(const std::vector<Vec3>& positions, const QuantizationGrid& grid) {
   QuantizedPositions q;
   q.xyz.resize(positions.size() * 3);

@@ -161,10 +161,7 @@ bool is_degenerate_triangle(const Mesh& mesh, size_t t) {
   uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
   if (a == b || b == c || a == c) return true;
   const Vec3 &p = mesh.positions[a], &q = mesh.positions[b], &r = mesh.positions[c];
-  double ux = double(q.x) - p.x, uy = double(q.y) - p.y, uz = double(q.z) - p.z;
-  double vx = double(r.x) - p.x, vy = double(r.y) - p.y, vz = double(r.z) - p.z;
-  double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
-  return cx == 0 && cy == 0 && cz == 0;
+  return triangle_cross(p, q, r) == Vec3d{0, 0, 0};
 }
 
 size_t count_degenerate_triangles(const Mesh& mesh) {

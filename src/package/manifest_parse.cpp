@@ -226,8 +226,7 @@ bool parse_components(const json& in, Checker& check, Manifest* out,
                                               std::to_string(component.offset + component.bytes) +
                                               " lie beyond" + of_chunk);
     }
-    if (!check.count(Checker::member(c, "triangles"), where + ".triangles",
-                     &component.triangles) ||
+    if (!check.count(Checker::member(c, "triangles"), where + ".triangles", &component.triangles) ||
         !check.count(Checker::member(c, "vertices"), where + ".vertices", &component.vertices) ||
         !check.box(Checker::member(c, "bounds"), where + ".bounds", &component.bounds) ||
         !check.number(Checker::member(c, "error_bound"), where + ".error_bound",
@@ -251,8 +250,7 @@ bool parse_instances(const json& in, Checker& check,
     if (instance.part >= out->parts.size()) {
       return check.fail(where + ".part", "no part " + std::to_string(instance.part));
     }
-    if (!check.string(Checker::member(v, "component"), where + ".component",
-                      &instance.component)) {
+    if (!check.string(Checker::member(v, "component"), where + ".component", &instance.component)) {
       return false;
     }
     const auto component = index_of.find(instance.component);
@@ -288,8 +286,8 @@ bool parse_stream_order(const json& in, Checker& check,
   std::vector<bool> seen(out->components.size(), false);
   for (size_t i = 0; i < in.size(); ++i) {
     const std::string where = at("stream_order", i);
-    const auto component = in[i].is_string() ? index_of.find(in[i].get<std::string>())
-                                             : index_of.end();
+    const auto component =
+        in[i].is_string() ? index_of.find(in[i].get<std::string>()) : index_of.end();
     if (component == index_of.end()) {
       return check.fail(where, "no component " + in[i].dump());
     }
@@ -324,8 +322,9 @@ Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::str
   }
   const json& version = Checker::member(in, "version");
   if (!version.is_number_integer() || version.get<int64_t>() != kManifestVersion) {
-    check.fail("version", "osteon reads version " + std::to_string(kManifestVersion) +
-                              ", the package is version " + version.dump(),
+    check.fail("version",
+               "osteon reads version " + std::to_string(kManifestVersion) +
+                   ", the package is version " + version.dump(),
                ErrorCode::kUnsupported);
     return check.status();
   }

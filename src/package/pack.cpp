@@ -537,24 +537,34 @@ Status write_stage(const PackOptions& options, const ViewerFiles& viewer_files,
 
 const char* stage_name(PackStage stage) {
   switch (stage) {
-    case PackStage::kRead: return "read";
-    case PackStage::kClean: return "clean";
-    case PackStage::kRepeats: return "repeats";
-    case PackStage::kSegment: return "segment";
-    case PackStage::kEncode: return "encode";
-    case PackStage::kWrite: return "write";
+    case PackStage::kRead:
+      return "read";
+    case PackStage::kClean:
+      return "clean";
+    case PackStage::kRepeats:
+      return "repeats";
+    case PackStage::kSegment:
+      return "segment";
+    case PackStage::kEncode:
+      return "encode";
+    case PackStage::kWrite:
+      return "write";
   }
   return "?";
 }
 
 const char* stage_unit(PackStage stage) {
   switch (stage) {
-    case PackStage::kRead: return "inputs";
+    case PackStage::kRead:
+      return "inputs";
     case PackStage::kClean:
     case PackStage::kRepeats:
-    case PackStage::kSegment: return "parts";
-    case PackStage::kEncode: return "components";
-    case PackStage::kWrite: return "files";
+    case PackStage::kSegment:
+      return "parts";
+    case PackStage::kEncode:
+      return "components";
+    case PackStage::kWrite:
+      return "files";
   }
   return "?";
 }
@@ -581,14 +591,12 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   report.prototypes = repeats.prototypes.size();
   ms.repeats_ms = ms_since(stage);
   stage = Clock::now();
-  OSTEON_ASSIGN_OR_RETURN(
-      std::vector<std::vector<Mesh>> pieces,
-      segment_stage(in.parts, repeats.prototypes, options, progress, arena));
+  OSTEON_ASSIGN_OR_RETURN(std::vector<std::vector<Mesh>> pieces,
+                          segment_stage(in.parts, repeats.prototypes, options, progress, arena));
   ms.segment_ms = ms_since(stage);
   stage = Clock::now();
-  OSTEON_ASSIGN_OR_RETURN(
-      EncodedParts encoded,
-      encode_stage(in.parts, repeats.prototypes, pieces, options, progress, arena));
+  OSTEON_ASSIGN_OR_RETURN(EncodedParts encoded, encode_stage(in.parts, repeats.prototypes, pieces,
+                                                             options, progress, arena));
   for (const Encoded& c : encoded.components) report.triangles_out += c.entry.triangles;
   ms.encode_ms = ms_since(stage);
 

@@ -181,8 +181,8 @@ Builder unit_icosphere(int subdivisions) {
   const double t = (1 + std::sqrt(5.0)) / 2;
   Builder b;
   const Vec3d corners[12] = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                          {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                          {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+                             {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                             {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
   for (const Vec3d& p : corners) b.add(normalize(p));
   b.indices = {0, 11, 5,  0, 5,  1, 0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11,
                4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3,  9,  4, 3,  4,  2, 3, 2, 6, 3,
@@ -214,10 +214,10 @@ Builder unit_icosphere(int subdivisions) {
 // ---- swept tubes closed by two poles (long bones, ribs, plates) ---------------------------------
 
 struct TubeShape {
-  std::function<Vec3d(double)> curve;   ///< the axis, s in [0, 1]; the poles are curve(0), curve(1)
-  Vec3d reference;                      ///< never parallel to the axis: fixes the ring frames
-  std::function<double(double)> rx;  ///< half-width along the frame's n, > 0 inside (0, 1)
-  std::function<double(double)> ry;  ///< half-width along the frame's b
+  std::function<Vec3d(double)> curve;  ///< the axis, s in [0, 1]; the poles are curve(0), curve(1)
+  Vec3d reference;                     ///< never parallel to the axis: fixes the ring frames
+  std::function<double(double)> rx;    ///< half-width along the frame's n, > 0 inside (0, 1)
+  std::function<double(double)> ry;    ///< half-width along the frame's b
 };
 
 struct Frame {
@@ -667,10 +667,10 @@ Phantom make_phantom(const PhantomOptions& options) {
        rotate_about(rotation_x(9 * kPi / 180), l1, {0, 5, -77}));
   const Vec3d rib_origin{0, -20, 1330};
   original("rib_l1", rib(rib_origin, detail));
-  copy(
-      "rib_l2", "rib_l1", PhantomKind::kNoisyCopy,
-      rotate_about(multiply(rotation_z(-3 * kPi / 180), rotation_x(2 * kPi / 180)), rib_origin, {0, 0, -26}),
-      0.05f);
+  copy("rib_l2", "rib_l1", PhantomKind::kNoisyCopy,
+       rotate_about(multiply(rotation_z(-3 * kPi / 180), rotation_x(2 * kPi / 180)), rib_origin,
+                    {0, 0, -26}),
+       0.05f);
   int scapula_edges = 0;
   Builder plate = scapula({95, -105, 1190}, detail, &scapula_edges);
   original("scapula_l", std::move(plate), PhantomKind::kNonManifold, -1, 1, scapula_edges);

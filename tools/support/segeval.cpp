@@ -234,10 +234,7 @@ Result<SegmentationEvaluator> SegmentationEvaluator::create(const Mesh& mesh) {
     const Vec3& p0 = mesh.positions[mesh.indices[3 * t]];
     const Vec3& p1 = mesh.positions[mesh.indices[3 * t + 1]];
     const Vec3& p2 = mesh.positions[mesh.indices[3 * t + 2]];
-    double ux = double(p1.x) - p0.x, uy = double(p1.y) - p0.y, uz = double(p1.z) - p0.z;
-    double vx = double(p2.x) - p0.x, vy = double(p2.y) - p0.y, vz = double(p2.z) - p0.z;
-    double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
-    data->face_area[t] = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+    data->face_area[t] = 0.5 * length(triangle_cross(p0, p1, p2));
     data->area += data->face_area[t];
   }
   if (!(data->area > 0) || !std::isfinite(data->area)) {

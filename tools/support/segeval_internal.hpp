@@ -9,8 +9,8 @@
 #include "osteon/mesh.hpp"
 #include "support/segeval.hpp"
 
-// What tools/support/segeval.cpp (the .seg reader, the region measures and the averages) shares with
-// tools/support/cut_discrepancy.cpp (the edge graph, the distance fields and CD).
+// What tools/support/segeval.cpp (the .seg reader, the region measures and the averages) shares
+// with tools/support/cut_discrepancy.cpp (the edge graph, the distance fields and CD).
 
 namespace osteon::detail {
 
