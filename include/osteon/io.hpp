@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "osteon/mesh.hpp"
@@ -30,6 +31,17 @@ struct ReadOptions {
   Unit unit = Unit::kUnknown;
   /// Refuse files (and, for folders, the sum of files) larger than this many bytes.
   uint64_t max_file_bytes = uint64_t{4} << 30;
+
+  // Label volumes (.nii, .nii.gz, .nrrd, .nhdr; osteon/volume.hpp) become one part per label.
+  /// The labels to take (select_labels: values, names or "bones"); empty: every label present.
+  std::vector<std::string> labels;
+  /// An intensity volume (a CT) gives the surface where the value is at least this (Hounsfield
+  /// units), split into connected parts. Unset: intensity volumes are refused.
+  std::optional<double> threshold;
+  /// > 0: simplify each label's surface to this error bound, in mm (SurfaceOptions::precision).
+  double surface_precision = 0;
+  /// Constrained smoothing passes over each surface (SurfaceOptions::smoothing_iterations).
+  int smoothing_iterations = 16;
 };
 
 /// Reads any input osteon takes: a package folder written by osteon pack (read_package: its parts

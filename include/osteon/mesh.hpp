@@ -36,6 +36,13 @@ struct Mesh {
   std::vector<Vec3> normals;      ///< empty, or one per position
   /// Vertices as stored in the file before any welding (an STL stores 3 per triangle).
   size_t stored_vertices = 0;
+  /// The part's display colour (sRGB, each 0..1) when its source gives one (a label volume's
+  /// table); pack passes it on to the viewer.
+  bool has_color = false;
+  Vec3 color{0, 0, 0};
+  /// The label value the part was extracted from (label volumes); 0 otherwise. A names file may
+  /// key a part by it.
+  uint32_t label = 0;
 
   size_t vertex_count() const { return positions.size(); }
   size_t triangle_count() const { return indices.size() / 3; }

@@ -34,6 +34,8 @@ struct ManifestPart {
   std::string source;  ///< the input file's name
   uint64_t triangles = 0;
   uint64_t prototype = 0;  ///< the part whose components it draws (itself unless a repeat)
+  bool has_color = false;  ///< "color" is written only when set
+  Vec3 color{0, 0, 0};     ///< sRGB, each 0..1
 };
 
 /// One encoded stream: a byte range of a chunk.

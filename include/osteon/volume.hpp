@@ -86,6 +86,21 @@ bool is_volume_path(const std::string& path);
 /// read.
 Result<LabelVolume> read_volume(const std::string& path, const VolumeReadOptions& options = {});
 
+// ---- choosing labels (src/label_select.cpp) ----------------------------------------------------
+
+/// True when a label's name names a bone (or the costal cartilages): one of its words starts with
+/// a bone word (vertebra, rib, sternum, costal, clavic, scapul, skull, humer, hip, sacrum, femur,
+/// tibia, ...) and none names soft tissue (cord, artery, vein, muscle, ...). Works for
+/// TotalSegmentator's class names ("vertebrae_T11", "rib_left_7") and Slicer's ("Left femur").
+bool is_bone_name(const std::string& name);
+
+/// The label values (sorted) that `selection` picks: each item a label value, a label name
+/// (case-insensitive), or the preset "bones" (every present label is_bone_name accepts); empty:
+/// every label present. Errors (kInvalidArgument, naming the item): a value or name that is not
+/// present, a name no label has, "bones" finding no bone.
+Result<std::vector<uint32_t>> select_labels(const LabelVolume& volume,
+                                            const std::vector<std::string>& selection);
+
 // ---- surfaces of a label volume (src/surface_nets.cpp, src/simplify_surfaces.cpp) -----------
 
 struct SurfaceOptions {

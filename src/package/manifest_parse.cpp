@@ -179,6 +179,16 @@ bool parse_parts(const json& in, Checker& check, Manifest* out) {
         !check.count(Checker::member(p, "prototype"), where + ".prototype", &part.prototype)) {
       return false;
     }
+    if (p.contains("color")) {
+      if (!check.vec3(p["color"], where + ".color", &part.color)) return false;
+      const float rgb[3] = {part.color.x, part.color.y, part.color.z};
+      for (int k = 0; k < 3; ++k) {
+        if (!(rgb[k] >= 0 && rgb[k] <= 1)) {
+          return check.fail(where + ".color[" + std::to_string(k) + "]", "expected 0..1");
+        }
+      }
+      part.has_color = true;
+    }
     out->parts.push_back(std::move(part));
   }
   for (size_t i = 0; i < out->parts.size(); ++i) {

@@ -56,13 +56,15 @@ std::string write_manifest(const Manifest& manifest) {
   json parts = json::array();
   for (size_t p = 0; p < manifest.parts.size(); ++p) {
     const ManifestPart& part = manifest.parts[p];
-    parts.push_back({{"id", p},
-                     {"name", part.name},
-                     {"display_name", part.display_name},
-                     {"group", part.group},
-                     {"source", part.source},
-                     {"triangles", part.triangles},
-                     {"prototype", part.prototype}});
+    json entry = {{"id", p},
+                  {"name", part.name},
+                  {"display_name", part.display_name},
+                  {"group", part.group},
+                  {"source", part.source},
+                  {"triangles", part.triangles},
+                  {"prototype", part.prototype}};
+    if (part.has_color) entry["color"] = vec_json(part.color);
+    parts.push_back(std::move(entry));
   }
   json components = json::array();
   for (const ManifestComponent& c : manifest.components) {

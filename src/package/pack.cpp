@@ -473,6 +473,8 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     part.name = parts[p].name;
     part.display_name = parts[p].name;
     auto named = names.find(detail::stem_of(parts[p].name));
+    if (named == names.end() && parts[p].label > 0)
+      named = names.find(std::to_string(parts[p].label));
     if (named != names.end()) {
       if (!named->second.name.empty()) part.display_name = named->second.name;
       part.group = named->second.group;
@@ -480,6 +482,12 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     part.source = fs::path(parts[p].source).filename().string();
     part.triangles = parts[p].triangle_count();
     part.prototype = r.prototype_of[p];
+    part.has_color = parts[p].has_color;
+    part.color = parts[p].color;
+    if (named != names.end() && named->second.has_color) {
+      part.has_color = true;
+      part.color = named->second.color;
+    }
     manifest.parts.push_back(std::move(part));
   }
   for (const Encoded& c : encoded->components) manifest.components.push_back(c.entry);

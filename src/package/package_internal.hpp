@@ -5,6 +5,7 @@
 #include <string>
 
 #include "osteon/status.hpp"
+#include "osteon/vec.hpp"
 
 // What pack's stages share inside the package module.
 
@@ -18,13 +19,16 @@ std::string stem_of(const std::string& name);
 struct DisplayName {
   std::string name;
   std::string group;
+  bool has_color = false;
+  Vec3 color{0, 0, 0};  ///< sRGB 0..1
 };
 
 /// Reads a names file (docs/FORMAT.md "Names file"): a JSON array of objects {filename|file|name,
 /// label|display_name, group}, a JSON object {stem: "display name"} or {stem: {display_name|label,
 /// group}}, or a CSV of stem,display_name[,group] lines (a first line starting with "file" or
-/// "stem" is a header). Keys are file stems. Errors: read_file's; kInvalidData for JSON that does
-/// not parse or a CSV line of fewer than 2 fields.
+/// "stem" is a header). Keys are file stems, or label values for parts of a label volume; an
+/// optional colour (JSON "color", CSV 4th column) is "#rrggbb" or three numbers 0..1. Errors:
+/// read_file's; kInvalidData for JSON that does not parse or a CSV line of fewer than 2 fields.
 Result<std::map<std::string, DisplayName>> read_names(const std::string& path);
 
 }  // namespace osteon::detail

@@ -42,6 +42,15 @@ function vec3(v, where) {
   return v.map((x, i) => number(x, `${where}[${i}]`));
 }
 
+/// An sRGB colour [r, g, b], each 0..1.
+function color(v, where) {
+  const rgb = vec3(v, where);
+  rgb.forEach((c, i) => {
+    if (!(c >= 0 && c <= 1)) fail(`${where}[${i}]`, `expected 0..1, got ${c}`);
+  });
+  return rgb;
+}
+
 function box(v, where) {
   if (!isObject(v)) fail(where, 'expected {"min": [x, y, z], "max": [x, y, z]}');
   const min = vec3(v.min, `${where}.min`);
@@ -129,6 +138,7 @@ export function parseManifest(json) {
       source: p.source === undefined ? '' : string(p.source, `${where}.source`),
       triangles: count(p.triangles, `${where}.triangles`),
       prototype: count(p.prototype, `${where}.prototype`),
+      color: p.color === undefined ? null : color(p.color, `${where}.color`),
     };
   });
   for (const p of parts) {

@@ -28,6 +28,7 @@ import {
   Matrix4,
   Mesh,
   MeshStandardMaterial,
+  SRGBColorSpace,
   Sphere,
   Vector3,
 } from 'three';
@@ -73,7 +74,35 @@ export function createPackageScene(manifest, root) {
   const material = new MeshStandardMaterial({ color: kBoneColor, roughness: 0.6, metalness: 0, side: DoubleSide });
   const highlightMaterial = material.clone();
   highlightMaterial.color.copy(material.color).multiply(kHighlight);
+  // Every material in use, for the renderer's clipping planes. A part with its own colour (a
+  // label volume's table) gets its own pair, made on first use; instanced batches use a white
+  // material and carry each instance's colour, the bone colour for parts without one.
   const materials = [material, highlightMaterial];
+  const instancedMaterial = material.clone();
+  instancedMaterial.color.copy(kWhite);
+  materials.push(instancedMaterial);
+  const boneColor = new Color(kBoneColor);
+  const partMaterials = new Map();     // part id -> [material, highlighted]
+
+  function partColor(partId) {
+    const rgb = manifest.parts[partId].color;
+    return rgb ? new Color().setRGB(rgb[0], rgb[1], rgb[2], SRGBColorSpace) : boneColor;
+  }
+
+  function materialOf(partId, highlight) {
+    if (!manifest.parts[partId].color) return highlight ? highlightMaterial : material;
+    let pair = partMaterials.get(partId);
+    if (!pair) {
+      const own = material.clone();
+      own.color.copy(partColor(partId));
+      const lit = own.clone();
+      lit.color.multiply(kHighlight);
+      pair = [own, lit];
+      partMaterials.set(partId, pair);
+      materials.push(own, lit);
+    }
+    return pair[highlight ? 1 : 0];
+  }
 
   const batches = [];                  // every draw object: { object, instances, instanced, mirror }
   const batchOf = new Map();           // instance index -> { batch, slot }
@@ -92,7 +121,9 @@ export function createPackageScene(manifest, root) {
     batch.slots = batch.instances.filter(instanceVisible);
     batch.slots.forEach((i, slot) => {
       object.setMatrixAt(slot, matrix.fromArray(manifest.instances[i].matrix));
-      object.setColorAt(slot, manifest.instances[i].part === highlighted ? kHighlight : kWhite);
+      const part = manifest.instances[i].part;
+      const color = partColor(part);
+      object.setColorAt(slot, part === highlighted ? color.clone().multiply(kHighlight) : color);
       batchOf.set(i, { batch, slot });
     });
     object.count = batch.slots.length;
@@ -109,7 +140,8 @@ export function createPackageScene(manifest, root) {
     } else {
       const i = batch.instances[0];
       batch.object.visible = instanceVisible(i);
-      batch.object.material = manifest.instances[i].part === highlighted ? highlightMaterial : material;
+      const part = manifest.instances[i].part;
+      batch.object.material = materialOf(part, part === highlighted);
     }
   }
 
@@ -148,7 +180,7 @@ export function createPackageScene(manifest, root) {
           flipped.setIndex(new BufferAttribute(flipWinding(geometry.index.array), 1));
           g = flipped;
         }
-        const object = new InstancedMesh(g, material, instances.length);
+        const object = new InstancedMesh(g, instancedMaterial, instances.length);
         object.name = `${id}${mirror ? ' (mirrored)' : ''}`;
         // Instance colours exist from the start, so the shader is compiled once with them.
         object.setColorAt(0, kWhite);
