@@ -1,16 +1,80 @@
 // SPDX-License-Identifier: Apache-2.0
-#include "osteon/io.hpp"
-#include "osteon/package.hpp"
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "io_internal.hpp"
+#include "osteon/io.hpp"
+#include "osteon/package.hpp"
+#include "osteon/repeats.hpp"
+#include "osteon/volume.hpp"
 
-// The one entry point for "any input": above the mesh readers (src/io*.cpp) and the package
-// module (src/package), so that neither depends on the other. A package folder reads as the parts
-// the viewer draws; everything else goes to the mesh readers.
+// The one entry point for "any input": above the mesh readers (src/io*.cpp), the label-volume
+// readers (src/volume_*.cpp) and the package module (src/package), so that none depends on
+// another. A package folder reads as the parts the viewer draws; a label volume as one surface
+// per label; everything else goes to the mesh readers.
 
 namespace osteon {
 
+namespace {
+
+/// Pieces of a thresholded CT smaller than this are noise (a few voxels of calcification or
+/// beam-hardening), not bones.
+constexpr size_t kSmallestBonePiece = 64;
+
+/// A label volume's surfaces as parts, one per label (or, for a thresholded CT, one per connected
+/// piece).
+Result<Scene> read_volume_parts(const std::string& path, const ReadOptions& options) {
+  VolumeReadOptions volume_options;
+  volume_options.threshold = options.threshold;
+  OSTEON_ASSIGN_OR_RETURN(LabelVolume volume, read_volume(path, volume_options));
+  SurfaceOptions surface_options;
+  OSTEON_ASSIGN_OR_RETURN(surface_options.labels, select_labels(volume, options.labels));
+  surface_options.precision = options.surface_precision;
+  surface_options.smoothing_iterations = options.smoothing_iterations;
+  OSTEON_ASSIGN_OR_RETURN(std::vector<LabelSurface> surfaces,
+                          extract_surfaces(volume, surface_options));
+  Scene scene;
+  for (LabelSurface& surface : surfaces) {
+    Mesh& mesh = surface.mesh;
+    mesh.source = path;
+    mesh.label = surface.value;
+    mesh.unit = Unit::kMillimetre;
+    mesh.unit_source = UnitSource::kUser;  // the volume's header says so
+    mesh.stored_vertices = mesh.positions.size();
+    for (const VolumeLabel& label : volume.table) {
+      if (label.value == surface.value && label.has_color && !mesh.has_color) {
+        mesh.has_color = true;
+        mesh.color = label.color;
+      }
+    }
+    if (!options.threshold) {
+      scene.parts.push_back(std::move(mesh));
+      continue;
+    }
+    for (Mesh& piece : split_connected(mesh)) {
+      if (piece.triangle_count() < kSmallestBonePiece) continue;
+      piece.source = path;
+      piece.label = surface.value;
+      piece.unit = mesh.unit;
+      piece.unit_source = mesh.unit_source;
+      piece.has_color = mesh.has_color;
+      piece.color = mesh.color;
+      scene.parts.push_back(std::move(piece));
+    }
+  }
+  if (scene.parts.empty()) {
+    return error(ErrorCode::kInvalidData, path,
+                 options.threshold ? "no voxel reaches the threshold" : "no label to extract");
+  }
+  if (options.unit != Unit::kUnknown) detail::assign_unit(options, &scene);
+  return scene;
+}
+
+}  // namespace
+
 Result<Scene> read_path(const std::string& path, const ReadOptions& options) {
+  if (is_volume_path(path)) return read_volume_parts(path, options);
   if (!is_package(path)) return read_meshes(path, options);
   OSTEON_ASSIGN_OR_RETURN(Scene scene, read_package(path));
   // The manifest's unit stands unless the caller gives one or it is unknown.

@@ -6,14 +6,17 @@
 #include <string>
 #include <vector>
 
+#include "../fuzz/volume_fuzz_input.hpp"
 #include "fixtures.hpp"
 #include "osteon/diagnose.hpp"
 #include "osteon/io.hpp"
+#include "osteon/volume.hpp"
 
 // Replays every file of the fuzzers' corpus (fuzz/corpus/<format>/: hand-made seeds, minimized
 // interesting inputs and crash- reproducers) through the reader the fuzzer for that folder uses,
-// then welds and diagnoses what it returns, exactly as fuzz/read_fuzzer.cpp does. Under ASan+UBSan
-// this keeps every past fuzzer finding fixed.
+// then welds and diagnoses what it returns, exactly as fuzz/read_fuzzer.cpp does; the label-volume
+// corpus (nii, niigz, nrrd, nhdr) goes through read_volume as fuzz/volume_fuzzer.cpp does. Under
+// ASan+UBSan this keeps every past fuzzer finding fixed.
 
 namespace osteon {
 namespace {
@@ -88,6 +91,57 @@ INSTANTIATE_TEST_SUITE_P(Formats, FuzzCorpus, ::testing::ValuesIn(corpus_formats
 
 TEST(FuzzCorpusFiles, StaySmall) {
   for (const std::string& format : corpus_formats()) {
+    std::vector<fs::path> files = corpus_files(format);
+    EXPECT_LE(files.size(), 40u) << format;
+    for (const fs::path& file : files) EXPECT_LT(fs::file_size(file), 4096u) << file;
+  }
+}
+
+// ---- the label-volume readers (fuzz/volume_fuzzer.cpp) ---------------------------------------
+
+const std::vector<std::string>& volume_corpus_formats() {
+  static const std::vector<std::string> formats = {"nii", "niigz", "nrrd", "nhdr"};
+  return formats;
+}
+
+class VolumeFuzzCorpus : public ::testing::TestWithParam<std::string> {};
+
+// Each input is written and read as the fuzzer does (fuzz/volume_fuzz_input.hpp), with the
+// fuzzer's options: a 64 MiB label limit, and a threshold for inputs of odd size.
+TEST_P(VolumeFuzzCorpus, EveryInputReadsOrFailsCleanly) {
+  const std::string& format = GetParam();
+  std::vector<fs::path> files = corpus_files(format);
+  ASSERT_FALSE(files.empty()) << "no seeds in " << corpus_dir() << "/" << format;
+  const std::string dir = test::scratch_dir();
+  size_t parsed = 0;
+  for (const fs::path& file : files) {
+    SCOPED_TRACE(file.filename().string());
+    std::vector<uint8_t> bytes = test::read_bytes(file.string());
+    ASSERT_LT(bytes.size(), 4096u) << "corpus files stay small";
+    const std::string path = fuzz::write_volume_input(dir, format, bytes.data(), bytes.size());
+    ASSERT_FALSE(path.empty());
+    VolumeReadOptions options;
+    options.max_voxel_bytes = uint64_t{64} << 20;
+    if (bytes.size() % 2 == 1) options.threshold = 100;
+    auto volume = read_volume(path, options);
+    if (!volume.ok()) {
+      const std::string& message = volume.status().message();
+      EXPECT_NE(volume.status().code(), ErrorCode::kOk);
+      EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
+      EXPECT_GT(message.size(), path.size() + 2) << message;
+      continue;
+    }
+    ++parsed;
+    EXPECT_EQ(fuzz::volume_contract_broken(*volume), "");
+  }
+  EXPECT_GT(parsed, 0u) << "not one input of " << format << " reads";
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, VolumeFuzzCorpus, ::testing::ValuesIn(volume_corpus_formats()),
+                         [](const auto& param_info) { return param_info.param; });
+
+TEST(VolumeFuzzCorpusFiles, StaySmall) {
+  for (const std::string& format : volume_corpus_formats()) {
     std::vector<fs::path> files = corpus_files(format);
     EXPECT_LE(files.size(), 40u) << format;
     for (const fs::path& file : files) EXPECT_LT(fs::file_size(file), 4096u) << file;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
 #include "osteon/package.hpp"
 #include "osteon/status.hpp"
@@ -57,6 +58,9 @@ struct PackOptions {
   /// first: the viewer (build/viewer). Empty: no viewer files. It may not hold manifest.json or
   /// anything under c/.
   std::string viewer;
+  /// How inputs are read (read_path): label volumes' --labels, --threshold and smoothing. A label
+  /// volume's surfaces are simplified to `precision` unless read.surface_precision is set.
+  ReadOptions read;
   /// Called as each stage advances (stage, units done, units in the stage), from the calling
   /// thread; for progress bars. May be empty.
   std::function<void(PackStage stage, uint64_t done, uint64_t total)> progress;

@@ -62,6 +62,12 @@ struct ManifestInstance {
 struct Manifest {
   Unit unit = Unit::kUnknown;
   Aabb bounds;  ///< of every part, in world coordinates
+  /// When the patient's axes are known (parts from label volumes, in LPS): the viewer's up
+  /// (superior) and the direction from the skeleton to the camera (anterior). "view" is written
+  /// only when set; without it the viewer takes the box's longest side as up.
+  bool has_view = false;
+  Vec3 view_up{0, 0, 1};
+  Vec3 view_eye{0, -1, 0};
   std::vector<ManifestChunk> chunks;
   std::vector<ManifestPart> parts;
   std::vector<ManifestComponent> components;

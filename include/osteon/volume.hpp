@@ -135,6 +135,13 @@ struct LabelSurface {
 Result<std::vector<LabelSurface>> extract_surfaces(const LabelVolume& volume,
                                                    const SurfaceOptions& options = {});
 
+/// The voxel faces between label `value` and everything else (background, other labels, outside
+/// the grid), two triangles a face, facing out, in world coordinates: the exact stair-stepped
+/// boundary that extract_surfaces' smooth surfaces are measured against. Vertices are not shared
+/// (weld() them for a connected mesh). Errors: kInvalidArgument for a label not present.
+/// O(voxels).
+Result<Mesh> voxel_faces(const LabelVolume& volume, uint32_t value);
+
 // ---- meshes to a label volume (src/voxelize.cpp, src/volume_write.cpp) ----------------------
 
 struct VoxelizeOptions {
@@ -158,7 +165,8 @@ struct VoxelizeReport {
 /// ray's answer, not three); a voxel inside several parts takes the last. Each part is voxelized
 /// in its own box and the file is written slab by slab, through a temporary file and a rename, so
 /// memory stays at the parts' boxes plus one slab. Errors: kInvalidArgument for a voxel size that
-/// is not positive or a grid over 2^31 voxels a side; write_file_atomic's.
+/// is not positive, a grid over 32767 voxels a side (NIfTI-1 stores 16-bit dimensions) or another
+/// extension; kIoError when the file cannot be written (no file is left behind).
 Status voxelize(const Scene& parts, const std::string& path, const VoxelizeOptions& options = {},
                 VoxelizeReport* report = nullptr);
 

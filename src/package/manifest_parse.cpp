@@ -350,6 +350,23 @@ Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::str
   if (!check.box(Checker::member(in, "bounds"), "bounds", &manifest.bounds)) {
     return check.status();
   }
+  if (in.contains("view")) {
+    const json& view = in["view"];
+    if (!view.is_object()) {
+      check.fail("view", R"(expected {"up": [x, y, z], "eye": [x, y, z]})");
+      return check.status();
+    }
+    if (!check.vec3(Checker::member(view, "up"), "view.up", &manifest.view_up) ||
+        !check.vec3(Checker::member(view, "eye"), "view.eye", &manifest.view_eye)) {
+      return check.status();
+    }
+    const Vec3d up = to_double(manifest.view_up), eye = to_double(manifest.view_eye);
+    if (!(length(cross(up, eye)) > 1e-6 * length(up) * length(eye))) {
+      check.fail("view", "up and eye must be non-zero and not parallel");
+      return check.status();
+    }
+    manifest.has_view = true;
+  }
   for (const char* key : {"chunks", "parts", "components", "instances", "stream_order"}) {
     if (!Checker::member(in, key).is_array()) {
       check.fail(key, "expected an array");

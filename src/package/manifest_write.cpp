@@ -91,6 +91,9 @@ std::string write_manifest(const Manifest& manifest) {
   out["chunks"] = std::move(chunks);
   out["unit"] = unit_name(manifest.unit);
   out["bounds"] = box_json(manifest.bounds);
+  if (manifest.has_view) {
+    out["view"] = {{"up", vec_json(manifest.view_up)}, {"eye", vec_json(manifest.view_eye)}};
+  }
   out["parts"] = std::move(parts);
   out["components"] = std::move(components);
   out["instances"] = std::move(instances);

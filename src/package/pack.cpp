@@ -196,9 +196,11 @@ Result<Inputs> read_stage(const std::vector<std::string>& inputs, const PackOpti
   if (!options.names.empty()) {
     OSTEON_ASSIGN_OR_RETURN(in.names, detail::read_names(options.names));
   }
+  ReadOptions read = options.read;
+  if (!(read.surface_precision > 0)) read.surface_precision = options.precision;
   for (size_t i = 0; i < inputs.size(); ++i) {
     progress(PackStage::kRead, i, inputs.size());
-    OSTEON_ASSIGN_OR_RETURN(Scene scene, read_path(inputs[i]));
+    OSTEON_ASSIGN_OR_RETURN(Scene scene, read_path(inputs[i], read));
     for (Mesh& part : scene.parts) {
       if (part.source.empty()) part.source = inputs[i];
       in.parts.push_back(std::move(part));
@@ -460,6 +462,10 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
                         std::vector<std::vector<uint8_t>>* chunk_data) {
   Manifest manifest;
   manifest.unit = parts.front().unit;
+  // Label volumes are read into the patient's frame (LPS: +z superior, -y anterior), so a package
+  // made only of them says which way is up and where the front is.
+  manifest.has_view = std::all_of(parts.begin(), parts.end(),
+                                  [](const Mesh& part) { return part.label > 0; });
   for (const Mesh& part : parts) expand(manifest.bounds, bounding_box(part));
   std::vector<double> area_of;
   manifest.instances = place_instances(parts, r, *encoded, &area_of);

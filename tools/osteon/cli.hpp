@@ -5,6 +5,7 @@
 #include <functional>
 #include <string>
 
+#include "osteon/io.hpp"
 #include "osteon/status.hpp"
 
 // The pieces every subcommand shares: registration, the one error format, exit codes.
@@ -28,6 +29,10 @@ void register_segeval(CLI::App& app, std::function<int()>* run);
 void register_repeats(CLI::App& app, std::function<int()>* run);
 void register_serve(CLI::App& app, std::function<int()>* run);
 void register_pack(CLI::App& app, std::function<int()>* run);
+void register_voxelize(CLI::App& app, std::function<int()>* run);
+
+/// Adds --labels, --threshold and --smoothing (label volumes) to a command that reads inputs.
+void add_volume_options(CLI::App* cmd, ReadOptions* options);
 
 /// Prints "osteon: error: <message>" to stderr and returns kExitError.
 int fail(const Status& status);

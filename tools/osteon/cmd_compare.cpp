@@ -36,6 +36,7 @@ struct CompareArgs {
   uint64_t seed = 1;
   int threads = 0;
   bool json = false;
+  ReadOptions read;  ///< label volumes' options, for both inputs
 };
 
 // One pair of parts to measure.
@@ -200,9 +201,9 @@ uint64_t expected_samples(const Mesh& a, const Mesh& b, const CompareArgs& args)
 }
 
 int run_compare(const CompareArgs& args) {
-  Result<Scene> read_a = read_path(args.a);
+  Result<Scene> read_a = read_path(args.a, args.read);
   if (!read_a.ok()) return fail(read_a.status());
-  Result<Scene> read_b = read_path(args.b);
+  Result<Scene> read_b = read_path(args.b, args.read);
   if (!read_b.ok()) return fail(read_b.status());
   Scene& scene_a = read_a.value();
   Scene& scene_b = read_b.value();
@@ -345,6 +346,7 @@ void register_compare(CLI::App& app, std::function<int()>* run) {
   cmd->add_option("--threads", args->threads, "Worker threads (default: every core)")
       ->check(CLI::Range(0, 4096));
   cmd->add_flag("--json", args->json, "Print a JSON report");
+  add_volume_options(cmd, &args->read);
   cmd->callback([args, run] { *run = [args] { return run_compare(*args); }; });
 }
 

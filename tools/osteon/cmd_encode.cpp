@@ -25,6 +25,7 @@ struct EncodeArgs {
   bool normals = false;
   int normal_bits = 10;
   bool json = false;
+  ReadOptions read;  ///< label volumes' options
 };
 
 struct DecodeArgs {
@@ -34,7 +35,7 @@ struct DecodeArgs {
 };
 
 int run_encode(const EncodeArgs& args) {
-  Result<Scene> scene = read_path(args.input);
+  Result<Scene> scene = read_path(args.input, args.read);
   if (!scene.ok()) return fail(scene.status());
   size_t parts = scene->parts.size();
   Mesh mesh = merge_parts(std::move(scene.value()));
@@ -126,6 +127,7 @@ void register_encode(CLI::App& app, std::function<int()>* run) {
   cmd->add_option("--normal-bits", args->normal_bits, "Bits per octahedral component, 8..16")
       ->check(CLI::Range(8, 16));
   cmd->add_flag("--json", args->json, "Print a JSON report");
+  add_volume_options(cmd, &args->read);
   cmd->callback([args, run] { *run = [args] { return run_encode(*args); }; });
 }
 

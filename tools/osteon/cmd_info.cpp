@@ -26,6 +26,7 @@ struct InfoArgs {
   bool drop_degenerate = false;
   bool components = false;
   std::string unit;
+  ReadOptions read;  ///< label volumes' options
 };
 
 nlohmann::json vec_json(const Vec3& v) {
@@ -127,7 +128,7 @@ void print_row(const std::string& name, const DiagnosisReport& r, size_t stored,
 }
 
 int run_info(const InfoArgs& args) {
-  ReadOptions read_options;
+  ReadOptions read_options = args.read;
   read_options.weld = !args.no_weld && args.weld_tolerance <= 0;
   if (!args.unit.empty() && !parse_unit(args.unit, &read_options.unit)) {
     return fail("--unit: unknown unit '" + args.unit + "' (use mm, cm, m or in)");
@@ -210,6 +211,7 @@ void register_info(CLI::App& app, std::function<int()>* run) {
                   "Mesh files (.stl .obj .ply .off .vtk .gltf .glb) or folders")
       ->required();
   cmd->add_flag("--json", args->json, "Print JSON (per part and in total) instead of a table");
+  add_volume_options(cmd, &args->read);
   cmd->add_flag("--no-weld", args->no_weld,
                 "Keep the vertices as stored (an STL then has 3 per triangle)");
   cmd->add_option("--weld-tolerance", args->weld_tolerance,

@@ -103,7 +103,7 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
   auto args = std::make_shared<PackArgs>();
   CLI::App* cmd = app.add_subcommand(
       "pack", "Read, clean, find repeats, segment and encode parts into a package folder");
-  cmd->add_option("inputs", args->inputs, "mesh files or folders of parts")->required();
+  cmd->add_option("inputs", args->inputs, "mesh files, folders of parts or label volumes (.nii, .nii.gz, .nrrd, .nhdr)")->required();
   cmd->add_option("-o,--output", args->options.output, "package folder")->required();
   CLI::Option* bits = cmd->add_option("--bits", args->options.bits,
                                       "bits per coordinate over a part's size (8..24, default 14)")
@@ -132,6 +132,7 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
                 "store every part's own components (no repeat search)");
   cmd->add_option("--threads", args->options.threads, "worker threads (default: every core)")
       ->check(CLI::NonNegativeNumber);
+  add_volume_options(cmd, &args->options.read);
   cmd->add_flag("--json", args->json, "print a JSON summary");
   cmd->callback([args, run] { *run = [args] { return run_pack(*args); }; });
 }

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Where the camera looks from. A package carries no "up" (docs/FORMAT.md): skeletons come Z-up
-// (BodyParts3D, CT scanners' patient axes) or Y-up (OpenSim, glTF), so the tallest side of the
-// package's box is taken as up, which holds for a standing skeleton or any long bone. The default
-// view then looks at the front: from -Y for Z-up (BodyParts3D's face points to -Y), from +Z for
-// Y-up (OpenSim's and glTF's front).
+// Where the camera looks from. A package made from label volumes says which way is up and where
+// the front is (the manifest's "view": the patient's axes are known). Otherwise it carries no
+// "up" (docs/FORMAT.md): skeletons come Z-up (BodyParts3D, CT scanners' patient axes) or Y-up
+// (OpenSim, glTF), so the tallest side of the package's box is taken as up, which holds for a
+// standing skeleton or any long bone. The default view then looks at the front: from -Y for Z-up
+// (BodyParts3D's face points to -Y), from +Z for Y-up (OpenSim's and glTF's front).
 //
 // Fitting works on the box, not its bounding sphere: a skeleton is tall and thin, and a sphere
 // fit would leave it a third of the screen high.
@@ -50,9 +51,12 @@ export function fitBox(bounds, eye, up, fovDeg, aspect, margin = 1.1) {
 /// margin, near and far from the package's size (24-bit depth keeps a fraction of a millimetre at
 /// the distance a whole skeleton is seen from, and zooming to a small bone stays unclipped), and
 /// how far the controls may zoom out. Returns { position, target, up, near, far, maxDistance }.
-export function packageView(bounds, fovDeg, aspect) {
+export function packageView(manifest, fovDeg, aspect) {
+  const { bounds } = manifest;
   const radius = Math.max(Math.hypot(...bounds.max.map((v, i) => v - bounds.min[i])) / 2, 1e-6);
-  const { eye, up } = defaultView(bounds);
+  const { eye, up } = manifest.view
+    ? { eye: new Vector3().fromArray(manifest.view.eye).normalize(), up: new Vector3().fromArray(manifest.view.up).normalize() }
+    : defaultView(bounds);
   const fit = fitBox(bounds, eye, up, fovDeg, aspect, 1.1);
   return { position: fit.position, target: fit.target, up, near: radius / 500, far: radius * 60, maxDistance: radius * 20 };
 }

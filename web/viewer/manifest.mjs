@@ -51,6 +51,16 @@ function color(v, where) {
   return rgb;
 }
 
+/// The package's "view": { up, eye }, two non-zero, non-parallel directions.
+function viewOf(v) {
+  if (!isObject(v)) fail('view', 'expected {"up": [x, y, z], "eye": [x, y, z]}');
+  const up = vec3(v.up, 'view.up');
+  const eye = vec3(v.eye, 'view.eye');
+  const cross = [up[1] * eye[2] - up[2] * eye[1], up[2] * eye[0] - up[0] * eye[2], up[0] * eye[1] - up[1] * eye[0]];
+  if (!(Math.hypot(...cross) > 1e-6 * Math.hypot(...up) * Math.hypot(...eye))) fail('view', 'up and eye must be non-zero and not parallel');
+  return { up, eye };
+}
+
 function box(v, where) {
   if (!isObject(v)) fail(where, 'expected {"min": [x, y, z], "max": [x, y, z]}');
   const min = vec3(v.min, `${where}.min`);
@@ -111,6 +121,7 @@ export function parseManifest(json) {
   const unit = string(json.unit, 'unit');
   if (!kUnits.has(unit)) fail('unit', `expected one of ${[...kUnits].join(', ')}, got ${JSON.stringify(unit)}`);
   const bounds = box(json.bounds, 'bounds');
+  const view = json.view === undefined ? null : viewOf(json.view);
   for (const key of ['chunks', 'parts', 'components', 'instances', 'stream_order']) {
     if (!Array.isArray(json[key])) fail(key, 'expected an array');
   }
@@ -223,6 +234,7 @@ export function parseManifest(json) {
   return {
     unit,
     bounds,
+    view,
     parts,
     chunks,
     components,

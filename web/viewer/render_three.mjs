@@ -70,7 +70,7 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
   setSize({ width, height, pixelRatio });
 
   // Until the page steers the camera, the view it will open with (the same computation there).
-  const initial = packageView(manifest.bounds, kFovDeg, camera.aspect);
+  const initial = packageView(manifest, kFovDeg, camera.aspect);
   camera.near = initial.near;
   camera.far = initial.far;
   camera.position.copy(initial.position);

@@ -102,7 +102,7 @@ function fitCamera(state, bounds, eye, up, margin = 1.1) {
 export function fitAll(state) {
   const { manifest } = state;
   if (!manifest) return;
-  const view = packageView(manifest.bounds, kFovDeg, state.camera.aspect);
+  const view = packageView(manifest, kFovDeg, state.camera.aspect);
   fitCamera(state, manifest.bounds, view.position.clone().sub(view.target).normalize(), view.up);
 }
 
@@ -117,7 +117,7 @@ export function framePart(state, partId) {
 /// then orbit controls on it, listening on the canvas.
 export function startControls(state) {
   const { camera, canvas } = state;
-  const view = packageView(state.manifest.bounds, kFovDeg, camera.aspect);
+  const view = packageView(state.manifest, kFovDeg, camera.aspect);
   camera.near = view.near;
   camera.far = view.far;
   camera.updateProjectionMatrix();

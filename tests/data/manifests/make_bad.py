@@ -56,6 +56,8 @@ bad = {
     "bad_component_range_outside_chunk.json": ("components[2].bytes", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"] - m["components"][2]["bytes"] + 1)),
     # An offset at the chunk's end (an empty range there, then its bytes) is named at .bytes too.
     "bad_component_offset_at_chunk_end.json": ("components[2].bytes", lambda m: m["components"][2].update(offset=m["chunks"][1]["bytes"])),
+    "bad_view_parallel.json": ("view", lambda m: m.update(view={"up": [0, 0, 1], "eye": [0, 0, -2]})),
+    "bad_view_eye_short.json": ("view.eye", lambda m: m.update(view={"up": [0, 0, 1], "eye": [0, 1]})),
     "bad_part_color_short.json": ("parts[1].color", lambda m: m["parts"][1].update(color=[0.5, 0.5])),
     "bad_part_color_range.json": ("parts[2].color[1]", lambda m: m["parts"][2].update(color=[0.5, 1.5, 0.5])),
     # An offset past the chunk's end is named at .offset itself.
