@@ -70,6 +70,7 @@ struct Outcome {
   size_t labels = 0;
   size_t closed = 0;  ///< labels whose surface is closed, manifold and oriented
   double peak_mib = 0;
+  uint64_t voxel_bytes = 0;  ///< the label volume's voxels in memory (osteon)
   std::string error;
 };
 
@@ -189,6 +190,7 @@ Outcome run_osteon(const std::string& path, const std::vector<std::string>& labe
   out.labels = j["labels"];
   out.closed = j["closed"];
   out.peak_mib = double(j["peak_kib"].get<uint64_t>()) / 1024.0;
+  out.voxel_bytes = j["voxel_bytes"];
   return out;
 }
 
@@ -295,27 +297,46 @@ int main(int argc, char** argv) {
       fs::temp_directory_path() / ("osteon_volume_bench_" + std::to_string(getpid()));
   fs::create_directories(scratch);
   if (fs::is_directory(bones)) {
-    osteon::Result<osteon::Scene> scene = osteon::read_path(bones.string());
-    if (scene.ok()) {
+    // Voxelized in a child, so that this process does not hold the skeleton's meshes (and the
+    // osteon children forked later start small).
+    const std::string out = (scratch / "bp3d.nii.gz").string();
+    const std::string summary = (scratch / "voxelized.txt").string();
+    const pid_t pid = fork();
+    if (pid == 0) {
+      osteon::Result<osteon::Scene> scene = osteon::read_path(bones.string());
+      if (!scene.ok()) _exit(1);
       osteon::Aabb box;
       for (const osteon::Mesh& part : scene->parts) expand(box, osteon::bounding_box(part));
       const double volume_mm3 =
           double(box.max.x - box.min.x) * (box.max.y - box.min.y) * (box.max.z - box.min.z);
       osteon::VoxelizeOptions options;
       options.voxel = std::cbrt(volume_mm3 / target_voxels);
-      const std::string out = (scratch / "bp3d.nii.gz").string();
       osteon::VoxelizeReport report;
       const auto start = Clock::now();
-      if (osteon::voxelize(scene.value(), out, options, &report).ok()) {
-        std::printf("voxelized BodyParts3D at %.3f mm: %u x %u x %u in %.0f ms\n", options.voxel,
-                    report.size[0], report.size[1], report.size[2], ms_since(start));
-        char label[160];
-        std::snprintf(label, sizeof(label),
-                      "BodyParts3D voxelized (%u x %u x %u = %.0f M voxels, %.2f mm), 235 labels",
-                      report.size[0], report.size[1], report.size[2], double(report.voxels) / 1e6,
-                      options.voxel);
-        sets.push_back({label, out, {}, true});
+      if (!osteon::voxelize(scene.value(), out, options, &report).ok()) _exit(1);
+      std::printf("voxelized BodyParts3D at %.3f mm: %u x %u x %u in %.0f ms\n", options.voxel,
+                  report.size[0], report.size[1], report.size[2], ms_since(start));
+      char label[160];
+      std::snprintf(label, sizeof(label),
+                    "BodyParts3D voxelized (%u x %u x %u = %.0f M voxels, %.2f mm), %zu labels",
+                    report.size[0], report.size[1], report.size[2], double(report.voxels) / 1e6,
+                    options.voxel, scene->parts.size());
+      FILE* f = std::fopen(summary.c_str(), "w");
+      if (f == nullptr) _exit(1);
+      std::fputs(label, f);
+      std::fclose(f);
+      _exit(0);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+      std::string label;
+      if (FILE* f = std::fopen(summary.c_str(), "r")) {
+        char buffer[256] = {};
+        if (std::fgets(buffer, sizeof(buffer), f) != nullptr) label = buffer;
+        std::fclose(f);
       }
+      sets.push_back({label, out, {}, true});
     }
   }
 
@@ -354,7 +375,13 @@ int main(int argc, char** argv) {
                                            : std::string("-"))
             << " | " << osteon_bench::sig(o.hausdorff_max, 3) << " / "
             << osteon_bench::sig(o.hausdorff_mean, 3) << " | " << o.closed << " of " << o.labels
-            << " | " << (o.peak_mib > 0 ? osteon_bench::fixed(o.peak_mib, 0) + " MiB" : "-")
+            << " | "
+            << (o.peak_mib > 0 ? osteon_bench::fixed(o.peak_mib, 0) + " MiB (" +
+                                     osteon_bench::fixed(o.peak_mib * 1048576.0 /
+                                                             double(std::max<uint64_t>(o.voxel_bytes, 1)),
+                                                         2) +
+                                     "x the voxels)"
+                               : "-")
             << " |\n";
     }
   }

@@ -1,19 +1,21 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <meshoptimizer.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/partitioner.h>
+#include "surface_internal.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <utility>
 #include <vector>
 
+#include <meshoptimizer.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
+
 #include "osteon/hausdorff.hpp"
-#include "surface_internal.hpp"
 
 // Based on: M. Garland, P. Heckbert, "Surface simplification using quadric error metrics",
 // SIGGRAPH 1997, as meshoptimizer's meshopt_simplify implements it (A. Kapoulkine), run on each
@@ -34,13 +36,16 @@
 // coincident vertices (which it locks), so the split survives.
 //
 // meshopt_simplify checks neither the link condition (a collapse can fold two edges onto one,
-// above all where segmentation noise leaves small handles and blobs) nor how far the removed
+// most often into a pair of back-to-back triangles, which are removed) nor how far the removed
 // vertices end up from the result (its error is a quadric: a one-voxel spike goes at no cost).
-// So each simplified patch is checked: a manifold with the same border, every extracted vertex
-// within the precision of the simplified patch and sample points of every simplified triangle
-// within the precision of the extracted one. Round each place that fails, the extracted
-// triangles are frozen (kept as they are, their edges a locked border too) and the patch is
-// simplified again, freezing wider rings each round, until it passes.
+// So each simplified patch is checked: a manifold with the same border, no triangle of zero
+// area, no ear folded over the border onto the neighbouring patch, no closed piece turned inside
+// out, every extracted vertex within the precision of the simplified patch and sample points of
+// every simplified triangle within the precision of the extracted one. Round each place that
+// fails, the extracted triangles are frozen (kept as they are, their edges a locked border too)
+// and the patch is simplified again, freezing wider rings each round, until it passes.
+// Known approximation: the distance check is sampled (like hausdorff()), so the Hausdorff
+// distance can exceed the precision a little.
 
 namespace osteon::detail {
 namespace {
@@ -52,10 +57,15 @@ namespace {
 constexpr double kErrorFactor = 0.5;
 /// Rounds of freezing before a patch is given up and kept whole as extracted.
 constexpr int kFreezeRounds = 5;
+/// A border vertex where the extracted patch's angles add up to more than this (half a turn and
+/// 15 degrees) may not be left with one triangle (see shape_defects). Along a straight border
+/// the angles add up to about half a turn, and an ear there is a harmless sliver.
+constexpr double kFoldAngle = 3.14159265358979323846;
 
 struct Patch {
   uint32_t owner = 0;                       ///< the net whose winding the patch has
   uint32_t partner = kNotSelected;          ///< the selected net on the other side, if any
+  uint32_t other = 0;                       ///< the region on the owner's other side (dense id)
   std::vector<uint32_t> owner_triangles;    ///< triangle numbers in the owner's mesh
   std::vector<uint32_t> partner_triangles;  ///< the same triangles in the partner's mesh
   /// Per patch triangle: kept as extracted (round a place where simplifying failed a check).
@@ -91,6 +101,7 @@ std::vector<Patch> find_patches(const std::vector<LabelNet>& nets,
       if (p != kNotSelected && p < o) continue;  // the partner owns it
       Patch patch;
       patch.owner = o;
+      patch.other = other;
       patch.owner_triangles = std::move(triangles);
       if (p != kNotSelected) {
         patch.partner = p;
@@ -286,27 +297,48 @@ void missing_border(const std::vector<uint64_t>& border, const std::vector<unsig
   }
 }
 
+/// The angle at corner `c` of triangle `f`.
+double corner_angle(const std::vector<Vec3>& positions, const unsigned int* f, int c) {
+  const Vec3d p = to_double(positions[f[c]]);
+  const Vec3d u = to_double(positions[f[(c + 1) % 3]]) - p;
+  const Vec3d v = to_double(positions[f[(c + 2) % 3]]) - p;
+  return std::atan2(length(cross(u, v)), dot(u, v));
+}
+
 /// Appends to `bad` the corners of simplified triangles that are degenerate (zero area) or that
-/// fold onto a neighbouring patch: a triangle left alone at a border vertex that had several
-/// (an ear over two border edges), which on a curved junction line spans the chord of the line
-/// and lies on the neighbour's side of it.
+/// fold onto a neighbouring patch. The second: a border vertex left with one triangle (an ear
+/// over its two border edges) where the extracted patch turned round it by over half a turn
+/// (its triangles' angles there add up to more than kFoldAngle): the ear then spans the
+/// border's chord on the far side, over the neighbouring patch (as round the rim where two
+/// boxes touch).
 void shape_defects(const PatchMesh& m, const std::vector<unsigned int>& out,
                    std::vector<uint32_t>& bad) {
   std::vector<uint32_t> before(m.keys.size(), 0), after(m.keys.size(), 0);
   for (unsigned int v : m.indices) ++before[v];
   for (unsigned int v : out) ++after[v];
+  std::vector<double> turn;  // the extracted angle sum, where needed
   for (size_t t = 0; t < out.size(); t += 3) {
     const unsigned int* f = &out[t];
     const Vec3d n = triangle_cross(m.positions[f[0]], m.positions[f[1]], m.positions[f[2]]);
     bool defect = n.x == 0 && n.y == 0 && n.z == 0;
-    for (int c = 0; c < 3 && !defect; ++c) defect = after[f[c]] == 1 && before[f[c]] > 1;
+    for (int c = 0; c < 3 && !defect; ++c) {
+      if (after[f[c]] != 1 || before[f[c]] < 2) continue;
+      if (turn.empty()) {
+        turn.assign(m.keys.size(), 0);
+        for (size_t u = 0; u < m.indices.size(); u += 3) {
+          for (int k = 0; k < 3; ++k)
+            turn[m.indices[u + k]] += corner_angle(m.positions, &m.indices[u], k);
+        }
+      }
+      defect = turn[f[c]] > kFoldAngle;
+    }
     if (defect) bad.insert(bad.end(), f, f + 3);
   }
 }
 
 /// Appends to `bad` the vertices of every closed piece of the patch (a whole component of the
-/// surface, no border) whose enclosed volume changed sign: meshopt_simplify can turn a blob of
-/// a few voxels inside out.
+/// surface, no border) whose enclosed volume changed sign or that vanished: meshopt_simplify can
+/// turn a blob of a few voxels inside out, or drop it.
 void volume_defects(const PatchMesh& m, const std::vector<uint64_t>& border,
                     const std::vector<unsigned int>& out, std::vector<uint32_t>& bad) {
   std::vector<uint32_t> parent(m.keys.size());
@@ -335,9 +367,164 @@ void volume_defects(const PatchMesh& m, const std::vector<uint64_t>& border,
     return v;
   };
   const std::vector<double> before = volumes(m.indices), after = volumes(out);
-  for (unsigned int v : out) {
+  for (unsigned int v : m.indices) {
     const uint32_t r = find(v);
     if (open[r] == 0 && (before[r] > 0) != (after[r] > 0)) bad.push_back(v);
+  }
+}
+
+/// Per net, the vertices several of its patches share (the junction lines): (vertex, patch),
+/// sorted, and beside each the patch's extracted normal there (its triangles' cross products
+/// at the vertex, added up).
+struct Junctions {
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> at;
+  std::vector<std::vector<Vec3d>> normal;
+};
+
+Junctions find_junctions(const std::vector<LabelNet>& nets,
+                         const std::vector<std::vector<uint32_t>>& original,
+                         const std::vector<Patch>& patches,
+                         const std::vector<std::vector<uint32_t>>& touching) {
+  Junctions j;
+  j.at.resize(nets.size());
+  j.normal.resize(nets.size());
+  tbb::parallel_for(size_t(0), nets.size(), [&](size_t o) {
+    struct Corner {
+      uint32_t vertex, patch;
+      Vec3d normal;
+    };
+    std::vector<Corner> all;
+    const std::vector<Vec3>& positions = nets[o].mesh.positions;
+    for (uint32_t p : touching[o]) {
+      const Patch& patch = patches[p];
+      for (uint32_t t : patch.owner == o ? patch.owner_triangles : patch.partner_triangles) {
+        const uint32_t* f = &original[o][3 * size_t(t)];
+        const Vec3d n = triangle_cross(positions[f[0]], positions[f[1]], positions[f[2]]);
+        for (int c = 0; c < 3; ++c) all.push_back({f[c], p, n});
+      }
+    }
+    std::stable_sort(all.begin(), all.end(), [](const Corner& x, const Corner& y) {
+      return x.vertex != y.vertex ? x.vertex < y.vertex : x.patch < y.patch;
+    });
+    for (size_t i = 0; i < all.size();) {
+      size_t k = i;
+      while (k < all.size() && all[k].vertex == all[i].vertex) ++k;
+      if (all[k - 1].patch != all[i].patch) {  // two patches or more
+        for (size_t r = i; r < k; ++r) {
+          if (r > i && all[r].patch == all[r - 1].patch) {
+            j.normal[o].back() = j.normal[o].back() + all[r].normal;
+          } else {
+            j.at[o].push_back({all[r].vertex, all[r].patch});
+            j.normal[o].push_back(all[r].normal);
+          }
+        }
+      }
+      i = k;
+    }
+  });
+  return j;
+}
+
+/// The entry of (vertex, patch) in at[net], or at[net].size().
+size_t junction(const Junctions& j, size_t net, uint32_t vertex, uint32_t patch) {
+  const auto& at = j.at[net];
+  auto it = std::lower_bound(at.begin(), at.end(), std::pair<uint32_t, uint32_t>{vertex, patch});
+  return it != at.end() && it->first == vertex && it->second == patch ? size_t(it - at.begin())
+                                                                      : at.size();
+}
+
+/// A patch other than `self` that holds the net vertices `v` (all three, or the first two when
+/// v[2] is UINT32_MAX), with `below` one numbered below `self`; UINT32_MAX if none.
+uint32_t other_patch_holding(const Junctions& j, size_t net, const uint32_t (&v)[3], uint32_t self,
+                             bool below) {
+  const auto& at = j.at[net];
+  auto it = std::lower_bound(at.begin(), at.end(), std::pair<uint32_t, uint32_t>{v[0], 0});
+  for (; it != at.end() && it->first == v[0]; ++it) {
+    const uint32_t q = it->second;
+    if (q == self || (below && q > self)) continue;
+    if (junction(j, net, v[1], q) == at.size()) continue;
+    if (v[2] != UINT32_MAX && junction(j, net, v[2], q) == at.size()) continue;
+    return q;
+  }
+  return UINT32_MAX;
+}
+
+/// Appends to `bad` the corners of what the simplified patch adds along a border it shares with
+/// another patch Q:
+///   - a new edge between two vertices of a border shared with a lower-numbered Q: two patches
+///     meeting along a junction line may each span the same chord of it, and the assembled mesh
+///     would hold that edge four times; of the patches along a junction line, only the lowest
+///     may add chords;
+///   - a new triangle whose three corners lie on the border with Q and that lies more in Q's
+///     surface there than in this patch's (its normal nearer Q's normal, either way round, than
+///     this patch's), or faces away from this patch's: where the junction line curves away from
+///     the patch, the chord triangle lies on Q, a fold (as round the rim where two boxes touch).
+void border_defects(const PatchMesh& m, const Patch& patch, uint32_t self, const Junctions& j,
+                    const std::vector<uint64_t>& border, const std::vector<unsigned int>& out,
+                    std::vector<uint32_t>& bad) {
+  std::vector<char> on_border(m.keys.size(), 0);
+  for (uint64_t e : border) on_border[e >> 32] = on_border[uint32_t(e)] = 1;
+  auto key = [](uint32_t a, uint32_t b) {
+    return a < b ? uint64_t(a) << 32 | b : uint64_t(b) << 32 | a;
+  };
+  std::vector<uint64_t> edges;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  edges.reserve(m.indices.size());
+  for (size_t i = 0; i < m.indices.size(); ++i) {
+    edges.push_back(key(m.indices[i], m.indices[i - i % 3 + (i % 3 + 1) % 3]));
+    if (i % 3 == 0) {
+      std::array<uint32_t, 3> t = {m.indices[i], m.indices[i + 1], m.indices[i + 2]};
+      std::sort(t.begin(), t.end());
+      triangles.push_back(t);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::sort(triangles.begin(), triangles.end());
+  // The sides: the owner's net (patch vertex key >> 32, the patch's winding) and the partner's
+  // (the key's low half, the opposite winding).
+  const int sides = patch.partner == kNotSelected ? 1 : 2;
+  auto net_vertex = [&](int side, uint32_t v) {
+    return side == 0 ? uint32_t(m.keys[v] >> 32) : uint32_t(m.keys[v]);
+  };
+  for (size_t t = 0; t < out.size(); t += 3) {
+    const uint32_t* f = &out[t];
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = f[c], b = f[(c + 1) % 3];
+      if (on_border[a] == 0 || on_border[b] == 0) continue;
+      if (std::binary_search(edges.begin(), edges.end(), key(a, b))) continue;
+      for (int side = 0; side < sides; ++side) {
+        const size_t net = side == 0 ? patch.owner : patch.partner;
+        const uint32_t v[3] = {net_vertex(side, a), net_vertex(side, b), UINT32_MAX};
+        if (other_patch_holding(j, net, v, self, true) != UINT32_MAX) {
+          bad.push_back(a), bad.push_back(b);
+          break;
+        }
+      }
+    }
+    if (on_border[f[0]] == 0 || on_border[f[1]] == 0 || on_border[f[2]] == 0) continue;
+    std::array<uint32_t, 3> sorted = {f[0], f[1], f[2]};
+    std::sort(sorted.begin(), sorted.end());
+    if (std::binary_search(triangles.begin(), triangles.end(), sorted)) continue;
+    const Vec3d n = triangle_cross(m.positions[f[0]], m.positions[f[1]], m.positions[f[2]]);
+    for (int side = 0; side < sides; ++side) {
+      const size_t net = side == 0 ? patch.owner : patch.partner;
+      const uint32_t v[3] = {net_vertex(side, f[0]), net_vertex(side, f[1]),
+                             net_vertex(side, f[2])};
+      const uint32_t q = other_patch_holding(j, net, v, self, false);
+      if (q == UINT32_MAX) continue;
+      Vec3d mine, theirs;
+      for (uint32_t w : v) {
+        mine = mine + j.normal[net][junction(j, net, w, self)];
+        theirs = theirs + j.normal[net][junction(j, net, w, q)];
+      }
+      const Vec3d facing = side == 0 ? n : -1.0 * n;
+      if (squared_length(mine) > 0 && squared_length(theirs) > 0 &&
+          (dot(facing, mine) < 0 ||
+           std::abs(dot(facing, normalize(theirs))) > dot(facing, normalize(mine)))) {
+        bad.insert(bad.end(), f, f + 3);
+        break;
+      }
+    }
   }
 }
 
@@ -446,8 +633,8 @@ void freeze_around(const PatchMesh& m, std::vector<char>& frozen, std::vector<ui
 /// result fails a check, until it passes; sets patch.simplified when the result differs from
 /// the extraction, patch.given_up when it had to stay (or would vanish).
 void simplify_patch(const std::vector<LabelNet>& nets,
-                    const std::vector<std::vector<uint32_t>>& original, Patch& patch,
-                    double precision, std::vector<uint32_t> seeds) {
+                    const std::vector<std::vector<uint32_t>>& original, const Junctions& junctions,
+                    uint32_t self, Patch& patch, double precision, std::vector<uint32_t> seeds) {
   patch.simplified = false;
   patch.owner_indices.clear();
   patch.partner_indices.clear();
@@ -471,6 +658,15 @@ void simplify_patch(const std::vector<LabelNet>& nets,
     return std::binary_search(border.begin(), border.end(), uint64_t(from) << 32 | to);
   };
 
+  // Vertices where the extracted patch itself is no manifold with a border (it touches itself
+  // there: one sheet of a label whose quads alternate between two regions round the vertex):
+  // the check below cannot hold them to it; the assembled meshes' check still does.
+  std::vector<char> pinched(m.keys.size(), 0);
+  {
+    std::vector<uint32_t> at;
+    manifold_defects(m.indices.data(), m.indices.size(), may_be_open, &at);
+    for (uint32_t v : at) pinched[v] = 1;
+  }
   const float scale = meshopt_simplifyScale(&m.positions[0].x, m.positions.size(), sizeof(Vec3));
   if (!(scale > 0)) return;
   std::optional<DistanceQuery> extracted;
@@ -508,8 +704,11 @@ void simplify_patch(const std::vector<LabelNet>& nets,
 
     std::vector<uint32_t> bad;
     manifold_defects(out.data(), out.size(), may_be_open, &bad);
+    bad.erase(std::remove_if(bad.begin(), bad.end(), [&](uint32_t v) { return pinched[v] != 0; }),
+              bad.end());
     missing_border(border, out, bad);
     shape_defects(m, out, bad);
+    border_defects(m, patch, self, junctions, border, out, bad);
     volume_defects(m, border, out, bad);
     if (bad.empty()) {
       if (!extracted) {
@@ -527,14 +726,14 @@ void simplify_patch(const std::vector<LabelNet>& nets,
     }
     freeze_around(m, patch.frozen, std::move(bad), 1 << patch.rounds);
   }
-  const bool shared = patch.partner != kNotSelected;
+  const bool two_sided = patch.partner != kNotSelected;
   patch.owner_indices.resize(out.size());
-  if (shared) patch.partner_indices.resize(out.size());
+  if (two_sided) patch.partner_indices.resize(out.size());
   for (size_t t = 0; t < out.size(); t += 3) {
     for (int c = 0; c < 3; ++c) {
       const uint64_t key = m.keys[out[t + c]];
       patch.owner_indices[t + c] = uint32_t(key >> 32);
-      if (shared) patch.partner_indices[t + kPartnerCorner[c]] = uint32_t(key);
+      if (two_sided) patch.partner_indices[t + kPartnerCorner[c]] = uint32_t(key);
     }
   }
   patch.simplified = true;
@@ -599,6 +798,8 @@ SimplifyReport simplify_nets(std::vector<LabelNet>& nets, const std::vector<uint
     if (patches[p].partner != kNotSelected) touching[patches[p].partner].push_back(p);
   }
 
+  const Junctions junctions = find_junctions(nets, original, patches, touching);
+
   // Simplify every patch, assemble the meshes and check each is a closed manifold; a patch that
   // passed its own checks can still break one with a neighbour (an edge both create between two
   // border vertices): those are simplified again, frozen round the place. The extracted nets
@@ -612,7 +813,8 @@ SimplifyReport simplify_nets(std::vector<LabelNet>& nets, const std::vector<uint
         [&](const tbb::blocked_range<size_t>& range) {
           for (size_t p = range.begin(); p < range.end(); ++p) {
             if (redo[p] != 0) {
-              simplify_patch(nets, original, patches[p], precision, std::move(seeds[p]));
+              simplify_patch(nets, original, junctions, uint32_t(p), patches[p], precision,
+                             std::move(seeds[p]));
             }
           }
         },
@@ -660,9 +862,14 @@ SimplifyReport simplify_nets(std::vector<LabelNet>& nets, const std::vector<uint
     report.unsimplified += patch.given_up;
     report.frozen_patches += !patch.given_up && patch.rounds > 0;
   }
-  for (LabelNet& net : nets) {
+  for (uint32_t o = 0; o < nets.size(); ++o) {
+    LabelNet& net = nets[o];
     remove_unreferenced_vertices(net.mesh);
-    net.other = {};
+    net.other.resize(triangle_patch[o].size());
+    for (size_t t = 0; t < net.other.size(); ++t) {
+      const Patch& patch = patches[triangle_patch[o][t]];
+      net.other[t] = patch.owner == o ? patch.other : nets[patch.owner].id;
+    }
   }
   return report;
 }

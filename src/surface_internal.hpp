@@ -45,7 +45,8 @@ struct SimplifyReport {
 /// keep one shared boundary. `output_of_id[id]` is the index in `nets` of dense id `id`, or
 /// kNotSelected. Where a simplified patch breaks a mesh's closed manifold, the extracted
 /// triangles round the place are kept and the rest simplified again (SimplifyReport). Drops the
-/// vertices no triangle uses any more (the survivors keep their order) and clears `other`.
+/// vertices no triangle uses any more (the survivors keep their order) and sets `other` for the
+/// simplified triangles (the rule above holds for them too).
 /// Runs on the calling thread's task arena.
 SimplifyReport simplify_nets(std::vector<LabelNet>& nets, const std::vector<uint32_t>& output_of_id,
                              double precision);
@@ -56,9 +57,10 @@ SimplifyReport simplify_nets(std::vector<LabelNet>& nets, const std::vector<uint
 /// the vertices where that fails, each at most a few times. O(n log n) for n indices.
 bool is_closed_manifold(const std::vector<uint32_t>& indices, std::vector<uint32_t>* bad);
 
-/// extract_surfaces, also reporting what simplification did (`report` may be null).
-Result<std::vector<LabelSurface>> extract_surfaces(const LabelVolume& volume,
-                                                   const SurfaceOptions& options,
-                                                   SimplifyReport* report);
+/// extract_surfaces, also reporting what simplification did and, per surface and triangle, the
+/// label value on the triangle's other side (0: background); either may be null.
+Result<std::vector<LabelSurface>> extract_surfaces(
+    const LabelVolume& volume, const SurfaceOptions& options, SimplifyReport* report,
+    std::vector<std::vector<uint32_t>>* sides = nullptr);
 
 }  // namespace osteon::detail

@@ -1,8 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/partitioner.h>
-#include <tbb/task_arena.h>
+#include "osteon/volume.hpp"
 
 #include <algorithm>
 #include <array>
@@ -15,7 +12,11 @@
 #include <utility>
 #include <vector>
 
-#include "osteon/volume.hpp"
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
+#include <tbb/task_arena.h>
+
 #include "surface_internal.hpp"
 
 // Based on: S. F. Frisken, "SurfaceNets for multi-label segmentations with preservation of sharp
@@ -680,12 +681,12 @@ constexpr float kSplitShift = 0.3f;
 /// quad of two selected labels share one position (their meshes share the boundary); the groups
 /// of vertices that share none move apart, so a label's sheets stay distinct points (welding a
 /// mesh by position keeps it manifold) unless a selected label touches two of them in the cell.
-void split_positions(const Cells& cells, uint32_t c, const int64_t (&corner0)[3],
-                     const Grid& grid, const CubeTables& t, const Vec3& local,
-                     std::vector<Vec3>& out) {
+void split_positions(const Cells& cells, uint32_t c, const int64_t (&corner0)[3], const Grid& grid,
+                     const CubeTables& t, const Vec3& local, std::vector<Vec3>& out) {
   const uint32_t eb = cells.entry_begin[c], ee = cells.entry_begin[c + 1];
   uint32_t base[9] = {0};
-  for (uint32_t e = eb; e < ee; ++e) base[e - eb + 1] = base[e - eb] + t.sheets[cells.entry_variant[e]][12];
+  for (uint32_t e = eb; e < ee; ++e)
+    base[e - eb + 1] = base[e - eb] + t.sheets[cells.entry_variant[e]][12];
   const uint32_t slots = base[ee - eb];
   uint8_t parent[32];
   for (uint8_t k = 0; k < 32; ++k) parent[k] = k;
@@ -696,7 +697,8 @@ void split_positions(const Cells& cells, uint32_t c, const int64_t (&corner0)[3]
   float sum[32][3] = {}, count[32] = {};
   int entry_of_corner[8];
   for (int k = 0; k < 8; ++k) {
-    const uint32_t id = grid.at(corner0[0] + (k & 1), corner0[1] + ((k >> 1) & 1), corner0[2] + (k >> 2));
+    const uint32_t id =
+        grid.at(corner0[0] + (k & 1), corner0[1] + ((k >> 1) & 1), corner0[2] + (k >> 2));
     entry_of_corner[k] = -1;
     for (uint32_t e = eb; e < ee; ++e) {
       if (cells.entry_label[e] == id) entry_of_corner[k] = int(e - eb);
@@ -814,7 +816,8 @@ void for_each_chunk(size_t chunks, F&& f) {
 
 Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
                                                    const SurfaceOptions& options,
-                                                   detail::SimplifyReport* report) {
+                                                   detail::SimplifyReport* report,
+                                                   std::vector<std::vector<uint32_t>>* sides) {
   OSTEON_RETURN_IF_ERROR(check_input(volume, options));
   auto ids = selected_ids(volume, options);
   if (!ids.ok()) return ids.status();
@@ -873,8 +876,16 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
     });
   }
 
-  // Each label's vertices in cell order, then its triangles renumbered.
+  // Each label's vertices in cell order, then its triangles renumbered. The vertex arrays are
+  // sized first: growing them by doubling would take the peak over twice the labels' bytes.
   std::vector<LabelNet> nets(ids->size());
+  {
+    std::vector<size_t> vertices(ids->size(), 0);
+    for (size_t e = 0; e < cells.entry_label.size(); ++e) {
+      vertices[output_of[cells.entry_label[e]]] += tables.sheets[cells.entry_variant[e]][12];
+    }
+    for (size_t o = 0; o < nets.size(); ++o) nets[o].mesh.positions.reserve(vertices[o]);
+  }
   std::vector<uint32_t> local_id(cells.vertices);
   std::vector<Vec3> split;
   const size_t per_slab = cells.rows_per_slab();
@@ -888,9 +899,9 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
                                     int64_t(row / per_slab) - 1};
         split_positions(cells, c, corner0, grid, tables, local[c], split);
         for (Vec3& p : split) {
-          p = to_float(transform_point(volume.index_to_world,
-                                       Vec3d{corner0[0] + double(p.x), corner0[1] + double(p.y),
-                                             corner0[2] + double(p.z)}));
+          p = to_float(transform_point(
+              volume.index_to_world,
+              Vec3d{corner0[0] + double(p.x), corner0[1] + double(p.y), corner0[2] + double(p.z)}));
         }
       }
       uint32_t slot = 0;
@@ -906,6 +917,7 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
   }
   world = {};
   local = {};
+  cells = {};
   for_each_chunk(nets.size(), [&](size_t o) {
     LabelNet& net = nets[o];
     size_t corners = 0;
@@ -931,6 +943,12 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
   if (options.precision > 0) simplified = detail::simplify_nets(nets, output_of, options.precision);
   if (report != nullptr) *report = simplified;
 
+  if (sides != nullptr) {
+    sides->assign(nets.size(), {});
+    for (size_t o = 0; o < nets.size(); ++o) {
+      for (uint32_t id : nets[o].other) (*sides)[o].push_back(volume.values[id]);
+    }
+  }
   std::vector<LabelSurface> surfaces(nets.size());
   for (size_t o = 0; o < nets.size(); ++o) {
     LabelSurface& s = surfaces[o];
@@ -951,10 +969,11 @@ namespace detail {
 
 Result<std::vector<LabelSurface>> extract_surfaces(const LabelVolume& volume,
                                                    const SurfaceOptions& options,
-                                                   SimplifyReport* report) {
+                                                   SimplifyReport* report,
+                                                   std::vector<std::vector<uint32_t>>* sides) {
   const int cores = tbb::info::default_concurrency();
   tbb::task_arena arena(options.threads > 0 ? std::min(options.threads, cores) : cores);
-  return arena.execute([&] { return extract_in_arena(volume, options, report); });
+  return arena.execute([&] { return extract_in_arena(volume, options, report, sides); });
 }
 
 }  // namespace detail

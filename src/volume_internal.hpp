@@ -139,6 +139,9 @@ Status decode_voxels(VoxelStream& stream, const VoxelLayout& layout,
 /// singular. `field` names the header field it came from.
 Status check_index_to_world(const Mat4& m, const std::string& source, const std::string& field);
 
+/// `text` in double quotes for a message: control bytes as '?', cut to 60 bytes ("...").
+std::string in_quotes(std::string_view text);
+
 /// Checked product of a grid's extents; false on overflow of 64 bits.
 bool checked_multiply(uint64_t a, uint64_t b, uint64_t* out);
 

@@ -157,8 +157,9 @@ class CaretScanner {
       uint32_t value = 0;
       if (key == label.attributes.end()) return bad("a <Label> without a Key", at);
       if (!parse_uint32(key->second, &value)) {
-        return bad(
-            "<Label Key=\"" + key->second + "\">: the Key is not an integer of 0 to 2^32 - 1", at);
+        return bad("<Label Key=" + in_quotes(key->second) +
+                       ">: the Key is not an integer of 0 to 2^32 - 1",
+                   at);
       }
       if (!keys.insert(value).second) {
         return bad("Key " + std::to_string(value) + " has two <Label> entries", at);
@@ -174,8 +175,8 @@ class CaretScanner {
         auto it = label.attributes.find(kChannels[c]);
         if (it == label.attributes.end()) continue;
         if (!parse_unit_float(it->second, &rgb[c])) {
-          return bad("<Label Key=\"" + std::to_string(value) + "\"> " + kChannels[c] + "=\"" +
-                         it->second + "\" is not a number of 0 to 1",
+          return bad("<Label Key=\"" + std::to_string(value) + "\"> " + kChannels[c] + "=" +
+                         in_quotes(it->second) + " is not a number of 0 to 1",
                      at);
         }
         ++channels;
@@ -298,8 +299,8 @@ Status check_unique_names(const std::vector<VolumeLabel>& labels,
     if (!inserted) {
       return error(ErrorCode::kInvalidData, source,
                    "label table gives labels " + std::to_string(labels[it->second].value) +
-                       " and " + std::to_string(labels[i].value) + " one name, \"" +
-                       labels[i].name + "\"",
+                       " and " + std::to_string(labels[i].value) + " one name, " +
+                       in_quotes(labels[i].name),
                    fields[i]);
     }
   }
@@ -360,14 +361,15 @@ Result<std::vector<SlicerSegment>> parse_slicer_segments(
     if (const std::string* text = get("LabelValue")) {
       if (!parse_uint32(*text, &segment.label.value) || segment.label.value == 0) {
         return error(ErrorCode::kInvalidData, source,
-                     "label value \"" + *text + "\" is not an integer of 1 to 2^32 - 1",
+                     "label value " + in_quotes(*text) + " is not an integer of 1 to 2^32 - 1",
                      prefix + "LabelValue");
       }
     }
     if (const std::string* text = get("Layer")) {
       if (!parse_uint32(*text, &segment.layer)) {
         return error(ErrorCode::kInvalidData, source,
-                     "layer \"" + *text + "\" is not a non-negative integer", prefix + "Layer");
+                     "layer " + in_quotes(*text) + " is not a non-negative integer",
+                     prefix + "Layer");
       }
     }
     if (segment.layer >= layers) {
@@ -384,13 +386,15 @@ Result<std::vector<SlicerSegment>> parse_slicer_segments(
         while (end < rest.size() && !is_space(rest[end])) ++end;
         if (!parse_unit_float(rest.substr(0, end), &rgb[c])) {
           return error(ErrorCode::kInvalidData, source,
-                       "colour \"" + *text + "\" is not three numbers of 0 to 1", prefix + "Color");
+                       "colour " + in_quotes(*text) + " is not three numbers of 0 to 1",
+                       prefix + "Color");
         }
         rest = trim(rest.substr(end));
       }
       if (!rest.empty()) {
         return error(ErrorCode::kInvalidData, source,
-                     "colour \"" + *text + "\" is not three numbers of 0 to 1", prefix + "Color");
+                     "colour " + in_quotes(*text) + " is not three numbers of 0 to 1",
+                     prefix + "Color");
       }
       segment.label.has_color = true;
       segment.label.color = Vec3{rgb[0], rgb[1], rgb[2]};

@@ -105,6 +105,16 @@ bool read_raw_header(const std::string& path, RawHeader* h) {
 #if defined(OSTEON_NIFTI2)
   int version = 0;
   std::unique_ptr<void, FreeHeader> header(nifti_read_header(path.c_str(), &version, 0));
+  if (header != nullptr && (version == 1 || version == 2)) {
+    // nifti2_io's nifti_read_header leaves a header of the other byte order as it is.
+    int32_t sizeof_hdr = 0;
+    std::memcpy(&sizeof_hdr, header.get(), 4);
+    const int32_t expected = version == 1 ? 348 : 540;
+    if (sizeof_hdr != expected &&
+        static_cast<int32_t>(__builtin_bswap32(static_cast<uint32_t>(sizeof_hdr))) == expected) {
+      swap_nifti_header(header.get(), version);
+    }
+  }
   if (header != nullptr && version == 1) {
     copy_fields(*static_cast<const nifti_1_header*>(header.get()), h);
     return valid_header(*h);
@@ -126,16 +136,11 @@ bool read_raw_header(const std::string& path, RawHeader* h) {
 }
 
 #if !defined(OSTEON_NIFTI2)
-// Without libnifti's nifti2 library: is this a NIfTI-2 file (sizeof_hdr 540, either byte order)?
-bool looks_like_nifti2(VoxelStream& stream) {
-  uint8_t first[4] = {0, 0, 0, 0};
-  size_t got = 0;
-  if (!stream.read(first, 4, &got).ok() || got < 4) return false;
+// sizeof_hdr of NIfTI-2, 540, in either byte order.
+bool nifti2_size(const uint8_t* first) {
   const uint32_t little = uint32_t{first[0]} | uint32_t{first[1]} << 8 | uint32_t{first[2]} << 16 |
                           uint32_t{first[3]} << 24;
-  const uint32_t big = uint32_t{first[3]} | uint32_t{first[2]} << 8 | uint32_t{first[1]} << 16 |
-                       uint32_t{first[0]} << 24;
-  return little == 540 || big == 540;
+  return little == 540 || __builtin_bswap32(little) == 540;
 }
 #endif
 
@@ -304,14 +309,22 @@ Status read_nifti(const std::string& path, const VolumeReadOptions& options, Lab
 
     // The header alone, as the file holds it.
     RawHeader h;
+    // What libnifti would print about rather than return: an ASCII header (.nia), and with
+    // niftiio a NIfTI-2 header. A corrupt gzip stream fails here, with zlib's reason.
+    uint8_t first[12] = {};
+    size_t got = 0;
+    OSTEON_RETURN_IF_ERROR(stream.read(first, sizeof first, &got));
+    OSTEON_RETURN_IF_ERROR(stream.restart());
+    if (got == sizeof first && std::memcmp(first, "<nifti_image", 12) == 0) {
+      return error(ErrorCode::kUnsupported, path, "an ASCII NIfTI header (.nia): osteon reads .nii",
+                   "magic");
+    }
 #if !defined(OSTEON_NIFTI2)
-    // niftiio prints an error for a NIfTI-2 header whatever its debug level: look first.
-    if (looks_like_nifti2(stream)) {
+    if (got >= 4 && nifti2_size(first)) {
       return error(ErrorCode::kUnsupported, path,
                    "a NIfTI-2 file: this build's libnifti (niftiio) reads NIfTI-1 only",
                    "sizeof_hdr");
     }
-    OSTEON_RETURN_IF_ERROR(stream.restart());
 #endif
     if (!read_raw_header(path, &h)) return no_header(stream, path);
     if (!h.one_file) {

@@ -166,7 +166,8 @@ Status read_header(const std::string& path, NrrdHeader* header) {
     auto [it, inserted] =
         header->fields.emplace(name, std::string(trim(content.substr(colon + 1))));
     if (!inserted) {
-      return error(ErrorCode::kInvalidData, path, "the field \"" + name + "\" is given twice",
+      return error(ErrorCode::kInvalidData, path,
+                   "the field " + in_quotes(name) + " is given twice",
                    "line " + std::to_string(line));
     }
     // "data file: LIST": the header ends, file names follow (refused as several files).
@@ -282,7 +283,7 @@ Result<VoxelType> parse_type(const std::string& value, const std::string& source
   if (name == "block") {
     return error(ErrorCode::kUnsupported, source, "type block holds no numbers", "type");
   }
-  return error(ErrorCode::kInvalidData, source, "unknown type \"" + value + "\"", "type");
+  return error(ErrorCode::kInvalidData, source, "unknown type " + in_quotes(value), "type");
 }
 
 // Millimetres per unit of a "space units" entry.
@@ -312,7 +313,7 @@ Result<uint64_t> skip_lines(const std::string& data_path, uint64_t offset, int64
                                                        &std::fclose);
   if (file == nullptr) {
     return error(ErrorCode::kIoError, source,
-                 "cannot open " + data_path + ": " + std::strerror(errno));
+                 "cannot open " + in_quotes(data_path) + ": " + std::strerror(errno));
   }
   if (fseeko(file.get(), static_cast<off_t>(offset), SEEK_SET) != 0) {
     return error(ErrorCode::kInvalidData, source, "cannot seek to the data", "line skip");
@@ -337,22 +338,24 @@ Result<std::string> detached_path(const std::string& header_path, const std::str
   if (name.empty()) return error(ErrorCode::kInvalidData, header_path, "an empty data file", field);
   const std::vector<std::string> words = tokens(name);
   if (words.size() != 1 || name == "LIST" || name.find('%') != std::string::npos) {
-    return error(ErrorCode::kUnsupported, header_path,
-                 "data split over several files (\"" + name + "\"): osteon reads one data file",
-                 field);
+    return error(
+        ErrorCode::kUnsupported, header_path,
+        "data split over several files (" + in_quotes(name) + "): osteon reads one data file",
+        field);
   }
   fs::path relative(name);
   if (relative.is_absolute() || name.front() == '/') {
-    return error(
-        ErrorCode::kInvalidData, header_path,
-        "the data file \"" + name + "\" is an absolute path: it must lie in the header's folder",
-        field);
+    return error(ErrorCode::kInvalidData, header_path,
+                 "the data file " + in_quotes(name) +
+                     " is an absolute path: it must lie in the header's folder",
+                 field);
   }
   for (const fs::path& part : relative) {
     if (part == "..") {
-      return error(ErrorCode::kInvalidData, header_path,
-                   "the data file \"" + name + "\" climbs out of the header's folder (\"..\")",
-                   field);
+      return error(
+          ErrorCode::kInvalidData, header_path,
+          "the data file " + in_quotes(name) + " climbs out of the header's folder (\"..\")",
+          field);
     }
   }
   fs::path folder = fs::path(header_path).parent_path();
@@ -369,7 +372,8 @@ Result<std::string> detached_path(const std::string& header_path, const std::str
                       (target_text[root_text.size()] == '/' || root_text == "/");
   if (!inside) {
     return error(ErrorCode::kInvalidData, header_path,
-                 "the data file \"" + name + "\" resolves outside the header's folder", field);
+                 "the data file " + in_quotes(name) + " resolves outside the header's folder",
+                 field);
   }
   return (folder / relative).string();
 }
@@ -445,16 +449,19 @@ Status place_grid(const NrrdHeader& header, int dimension, const Axes& axes,
       flip[1] = -1;
     } else if (name == "left-posterior-superior" || name == "lps") {
     } else if (name == "scanner-xyz" || name == "3d-right-handed" || name == "3d-left-handed") {
-      volume->notes.push_back("space " + *space + " is not a patient space: taken as LPS");
+      volume->notes.push_back("space " + in_quotes(*space) +
+                              " is not a patient space: taken as LPS");
     } else {
       return error(ErrorCode::kUnsupported, source,
-                   "space \"" + *space + "\": osteon reads RAS, LAS and LPS volumes", "space");
+                   "space " + in_quotes(*space) + ": osteon reads RAS, LAS and LPS volumes",
+                   "space");
     }
   } else if (const std::string* dims = get("space dimension")) {
     int64_t n = 0;
     if (!parse_int64(*dims, &n) || n != 3) {
       return error(ErrorCode::kUnsupported, source,
-                   "space dimension " + *dims + ": osteon reads 3-D spaces", "space dimension");
+                   "space dimension " + in_quotes(*dims) + ": osteon reads 3-D spaces",
+                   "space dimension");
     }
     volume->notes.push_back("no named space: the space directions are taken as LPS");
   }
@@ -469,7 +476,8 @@ Status place_grid(const NrrdHeader& header, int dimension, const Axes& axes,
     for (int r = 0; r < 3; ++r) {
       if (!unit_scale(words[r], &units[r])) {
         return error(ErrorCode::kUnsupported, source,
-                     "space unit " + words[r] + ": osteon reads mm, cm, m and um", "space units");
+                     "space unit " + in_quotes(words[r]) + ": osteon reads mm, cm, m and um",
+                     "space units");
       }
     }
   }
@@ -477,7 +485,7 @@ Status place_grid(const NrrdHeader& header, int dimension, const Axes& axes,
   if (const std::string* text = get("space origin")) {
     if (!parse_vector(*text, &origin)) {
       return error(ErrorCode::kInvalidData, source,
-                   "space origin \"" + *text + "\" is not a vector (x,y,z)", "space origin");
+                   "space origin " + in_quotes(*text) + " is not a vector (x,y,z)", "space origin");
     }
   }
   Vec3d columns[3];
@@ -488,8 +496,8 @@ Status place_grid(const NrrdHeader& header, int dimension, const Axes& axes,
       const std::string& token = directions[axes.spatial[s]];
       if (!parse_vector(token, &columns[s])) {
         return error(ErrorCode::kInvalidData, source,
-                     "space direction " + token + " of axis " + std::to_string(axes.spatial[s]) +
-                         " is not a vector (x,y,z)",
+                     "space direction " + in_quotes(token) + " of axis " +
+                         std::to_string(axes.spatial[s]) + " is not a vector (x,y,z)",
                      field);
       }
     }
@@ -508,8 +516,8 @@ Status place_grid(const NrrdHeader& header, int dimension, const Axes& axes,
         const std::string& word = words[axes.spatial[s]];
         if (!parse_double(word, &spacing[s]) || !(spacing[s] > 0) || !std::isfinite(spacing[s])) {
           return error(ErrorCode::kInvalidData, source,
-                       "spacing " + word + " of axis " + std::to_string(axes.spatial[s]) +
-                           ": voxel sizes must be positive",
+                       "spacing " + in_quotes(word) + " of axis " +
+                           std::to_string(axes.spatial[s]) + ": voxel sizes must be positive",
                        field);
         }
       }
@@ -562,7 +570,7 @@ Status read_nrrd(const std::string& path, const VolumeReadOptions& options, Labe
   OSTEON_ASSIGN_OR_RETURN(layout.type, parse_type(*type_text, path));
   int64_t dimension = 0;
   if (!parse_int64(*dimension_text, &dimension) || dimension < 1 || dimension > 16) {
-    return error(ErrorCode::kInvalidData, path, "dimension \"" + *dimension_text + "\"",
+    return error(ErrorCode::kInvalidData, path, "dimension " + in_quotes(*dimension_text),
                  "dimension");
   }
   if (dimension != 3 && dimension != 4) {
@@ -584,13 +592,14 @@ Status read_nrrd(const std::string& path, const VolumeReadOptions& options, Labe
     int64_t n = 0;
     if (!parse_int64(size_words[a], &n) || n < 1) {
       return error(ErrorCode::kInvalidData, path,
-                   "size \"" + size_words[a] + "\" of axis " + std::to_string(a) +
+                   "size " + in_quotes(size_words[a]) + " of axis " + std::to_string(a) +
                        " is not a positive integer",
                    "sizes");
     }
     if (n > std::numeric_limits<uint32_t>::max()) {
       return error(ErrorCode::kUnsupported, path,
-                   "size " + size_words[a] + " of axis " + std::to_string(a) + " is over 2^32 - 1",
+                   "size " + in_quotes(size_words[a]) + " of axis " + std::to_string(a) +
+                       " is over 2^32 - 1",
                    "sizes");
     }
     sizes[a] = static_cast<uint64_t>(n);
@@ -605,12 +614,13 @@ Status read_nrrd(const std::string& path, const VolumeReadOptions& options, Labe
                        encoding == "text" || encoding == "txt" || encoding == "hex" ||
                        encoding == "zstd";
     return error(known ? ErrorCode::kUnsupported : ErrorCode::kInvalidData, path,
-                 "encoding \"" + *encoding_text + "\": osteon reads raw and gzip", "encoding");
+                 "encoding " + in_quotes(*encoding_text) + ": osteon reads raw and gzip",
+                 "encoding");
   }
   if (const std::string* endian = get("endian")) {
     const std::string name = lower(*endian);
     if (name != "little" && name != "big") {
-      return error(ErrorCode::kInvalidData, path, "endian \"" + *endian + "\"", "endian");
+      return error(ErrorCode::kInvalidData, path, "endian " + in_quotes(*endian), "endian");
     }
     layout.big_endian = name == "big";
   } else if (voxel_type_bytes(layout.type) > 1) {
@@ -735,14 +745,14 @@ Status read_nrrd(const std::string& path, const VolumeReadOptions& options, Labe
   if (const std::string* text = get("line skip")) {
     int64_t lines = 0;
     if (!parse_int64(*text, &lines) || lines < 0) {
-      return error(ErrorCode::kInvalidData, path, "line skip \"" + *text + "\"", "line skip");
+      return error(ErrorCode::kInvalidData, path, "line skip " + in_quotes(*text), "line skip");
     }
     OSTEON_ASSIGN_OR_RETURN(offset, skip_lines(data_path, offset, lines, path));
   }
   int64_t byte_skip = 0;
   if (const std::string* text = get("byte skip")) {
     if (!parse_int64(*text, &byte_skip) || byte_skip < -1) {
-      return error(ErrorCode::kInvalidData, path, "byte skip \"" + *text + "\"", "byte skip");
+      return error(ErrorCode::kInvalidData, path, "byte skip " + in_quotes(*text), "byte skip");
     }
   }
   if (byte_skip == -1) {
@@ -753,7 +763,8 @@ Status read_nrrd(const std::string& path, const VolumeReadOptions& options, Labe
     std::error_code ec;
     const uint64_t size = fs::file_size(data_path, ec);
     if (ec) {
-      return error(ErrorCode::kIoError, path, "cannot open " + data_path + ": " + ec.message());
+      return error(ErrorCode::kIoError, path,
+                   "cannot open " + in_quotes(data_path) + ": " + ec.message());
     }
     if (declared > size - std::min(size, offset)) {
       return error(ErrorCode::kInvalidData, path,

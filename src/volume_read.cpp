@@ -602,6 +602,17 @@ const char* voxel_type_name(VoxelType type) {
   return "?";
 }
 
+std::string in_quotes(std::string_view text) {
+  constexpr size_t kMax = 60;
+  std::string out = "\"";
+  for (size_t i = 0; i < text.size() && i < kMax; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    out.push_back(c < 0x20 || c == 0x7f ? '?' : static_cast<char>(c));
+  }
+  if (text.size() > kMax) out += "...";
+  return out + "\"";
+}
+
 bool checked_multiply(uint64_t a, uint64_t b, uint64_t* out) {
   return !__builtin_mul_overflow(a, b, out);
 }

@@ -621,6 +621,8 @@ TEST(VolumeReadNifti, BadInputs) {
   }
   cases.push_back({"text.nii", "not a nifti file at all, just some text that is long enough.",
                    "not a NIfTI-1 or NIfTI-2 file"});
+  cases.push_back({"ascii.nii", "<nifti_image\n  nx = '4'\n/>\n" + std::string(400, ' '),
+                   "an ASCII NIfTI header", ErrorCode::kUnsupported});
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     const std::string path = write_file(dir, c.name, c.bytes);

@@ -106,9 +106,10 @@ Result<std::vector<uint32_t>> select_labels(const LabelVolume& volume,
 struct SurfaceOptions {
   /// The label values to extract; empty: every label present.
   std::vector<uint32_t> labels;
-  /// Constrained smoothing passes: each vertex moves towards the mean of its neighbours but
-  /// stays inside its cell (the cube between 8 voxel centres), so it never leaves the voxels
-  /// around the label's boundary. 0: the raw, stair-stepped net.
+  /// Constrained smoothing passes (Taubin's two steps, which do not shrink the surface): each
+  /// vertex moves towards the mean of its neighbours but stays inside its cell (the cube between
+  /// 8 voxel centres), and one on a line where three regions meet moves only along it, so it never
+  /// leaves the voxels around the label's boundary. 0: the raw, stair-stepped net.
   int smoothing_iterations = 16;
   /// > 0: simplify each surface (meshoptimizer, with the lines where three regions meet locked,
   /// so touching labels keep one shared boundary) until the next collapse would exceed this
@@ -130,7 +131,8 @@ struct LabelSurface {
 /// label's surface would otherwise touch itself, so each surface is watertight, oriented and
 /// manifold; two labels that touch share their boundary vertex for vertex (no gap, no overlap);
 /// every vertex stays within one voxel of the label's boundary. Meshes are in world coordinates
-/// (mm), named after the label table (else "label <value>"), with the table's colour.
+/// (mm), named after the label table (else "label <value>"); read_path adds the table's colour
+/// and the label value (Mesh::color, Mesh::label).
 /// Errors: kInvalidArgument for a label value not present. O(voxels + surface).
 Result<std::vector<LabelSurface>> extract_surfaces(const LabelVolume& volume,
                                                    const SurfaceOptions& options = {});
