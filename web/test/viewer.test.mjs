@@ -40,6 +40,7 @@ const skip = missingPrerequisite();
 if (skip) console.log(`# viewer browser tests skipped: ${skip}`);
 const bonesDir = path.join(dataDir, 'aHer-dev__3DAnatomy', 'models', 'bones');
 const metaJson = path.join(dataDir, 'aHer-dev__3DAnatomy', 'meta.json');
+const ctSeg = path.join(dataDir, 'wasserth__TotalSegmentator', 'tests', 'reference_files', 'example_seg.nii.gz');
 const kDesktop = { viewport: { width: 1280, height: 800 }, deviceScaleFactor: 1 };
 const kPhone = { viewport: { width: 390, height: 844 }, deviceScaleFactor: 1, isMobile: true, hasTouch: true };
 
@@ -236,6 +237,30 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     await settle(page);
     await shootCanvas(page, 'bodyparts3d-skull-selected');
     await page.screenshot({ path: path.join(artifacts, 'bodyparts3d-page.png') });
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+
+  test('a CT segmentation (TotalSegmentator, --labels bones) shows 17 named, coloured bones upright and from the front', {
+    skip: existsSync(ctSeg) ? false : `no real data at ${ctSeg}`,
+  }, async () => {
+    const m = pack([ctSeg], path.join(site, 'ct'), ['--labels', 'bones']);
+    assert.equal(m.parts.length, 17);
+    assert.ok(m.parts.every((p) => p.color.length === 3), 'every bone has its colour from the file');
+    const context = await browser.newContext(kDesktop);
+    const { page, problems } = await openViewer(context, `${server.url}ct/`);
+    const state = await waitLoaded(page);
+    assert.deepEqual(state.errors, []);
+    assert.equal(state.componentsLoaded, 17);
+    const names = await page.locator('#part-list li').allTextContents();
+    for (const bone of ['vertebrae_T11', 'vertebrae_L2', 'rib_left_7', 'costal_cartilages']) {
+      assert.ok(names.some((n) => n.includes(bone)), `${bone} is listed`);
+    }
+    // Upright: T11 above L2 on screen; from the front: the patient's left ribs on screen right.
+    const at = (name) => page.evaluate((n) => window.osteon.screenPositionOf(n), name);
+    assert.ok((await at('vertebrae_T11')).y < (await at('vertebrae_L2')).y, 'upright');
+    assert.ok((await at('rib_left_9')).x > (await at('rib_right_9')).x, 'seen from the front');
+    await shootCanvas(page, 'ct-segmentation');
     assert.deepEqual(problems, []);
     await context.close();
   });
