@@ -863,19 +863,6 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
     world = world_positions(cells, local, volume.index_to_world);
   }
 
-  // Pass 3: the quads, per chunk and label.
-  std::vector<ChunkTriangles> emitted(chunk_count);
-  {
-    EmitContext emit{grid,       &cells,  &world,
-                     &output_of, &tables, determinant3(volume.index_to_world) < 0};
-    for_each_chunk(chunk_count, [&](size_t c) {
-      auto [begin, end] = chunk_range(c);
-      emitted[c].corners.resize(ids->size());
-      emitted[c].other.resize(ids->size());
-      emit_chunk(emit, begin, end, emitted[c]);
-    });
-  }
-
   // Each label's vertices in cell order, then its triangles renumbered. The vertex arrays are
   // sized first: growing them by doubling would take the peak over twice the labels' bytes.
   std::vector<LabelNet> nets(ids->size());
@@ -915,8 +902,22 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
       }
     }
   }
-  world = {};
   local = {};
+
+  // Pass 3: the quads, per chunk and label.
+  std::vector<ChunkTriangles> emitted(chunk_count);
+  {
+    EmitContext emit{grid,       &cells,  &world,
+                     &output_of, &tables, determinant3(volume.index_to_world) < 0};
+    for_each_chunk(chunk_count, [&](size_t c) {
+      auto [begin, end] = chunk_range(c);
+      emitted[c].corners.resize(ids->size());
+      emitted[c].other.resize(ids->size());
+      emit_chunk(emit, begin, end, emitted[c]);
+    });
+  }
+
+  world = {};
   cells = {};
   for_each_chunk(nets.size(), [&](size_t o) {
     LabelNet& net = nets[o];
