@@ -788,7 +788,6 @@ Status read_nrrd(const std::string& path, const VolumeReadOptions& options, Labe
   if (gzip && declared <= std::numeric_limits<uint64_t>::max() - byte_skip) {
     layout.stream_bytes = declared + static_cast<uint64_t>(std::max<int64_t>(byte_skip, 0));
   }
-  (void)volumes;
   return decode_voxels(stream, layout, named, options, path, volume);
 }
 

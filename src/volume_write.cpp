@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <fcntl.h>
-#include <nifti1_io.h>
+#include <nifti2_io.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -98,16 +98,17 @@ Result<std::vector<uint8_t>> header_bytes(const std::string& path,
   int datatype = layout.bytes_per_voxel == 1   ? DT_UINT8
                  : layout.bytes_per_voxel == 2 ? DT_UINT16
                                                : DT_UINT32;
-  int dims[8] = {3, int(layout.size[0]), int(layout.size[1]), int(layout.size[2]), 1, 1, 1, 1};
+  const int64_t dims[8] = {
+      3, int64_t(layout.size[0]), int64_t(layout.size[1]), int64_t(layout.size[2]), 1, 1, 1, 1};
   NiftiImagePtr nim(nifti_make_new_nim(dims, datatype, 0));
   if (!nim) return bad("libnifti cannot make a header for this grid");
 
   // osteon's frame is LPS; NIfTI's world is RAS+: x and y change sign.
   const Mat4& m = layout.index_to_world;
-  mat44 ras;
+  nifti_dmat44 ras;
   for (int r = 0; r < 4; ++r) {
     double sign = r < 2 ? -1.0 : 1.0;
-    for (int c = 0; c < 4; ++c) ras.m[r][c] = float(r < 3 ? sign * m[4 * c + r] : (c == 3));
+    for (int c = 0; c < 4; ++c) ras.m[r][c] = r < 3 ? sign * m[4 * c + r] : double(c == 3);
   }
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 4; ++c) {
@@ -116,15 +117,15 @@ Result<std::vector<uint8_t>> header_bytes(const std::string& path,
   }
   if (!(std::fabs(determinant3(m)) > 0)) return bad("the voxel-to-world transform is singular");
   nim->sto_xyz = ras;
-  nim->sto_ijk = nifti_mat44_inverse(ras);
+  nim->sto_ijk = nifti_dmat44_inverse(ras);
   nim->sform_code = NIFTI_XFORM_SCANNER_ANAT;
-  float dx = 0, dy = 0, dz = 0;
-  nifti_mat44_to_quatern(ras, &nim->quatern_b, &nim->quatern_c, &nim->quatern_d, &nim->qoffset_x,
-                         &nim->qoffset_y, &nim->qoffset_z, &dx, &dy, &dz, &nim->qfac);
+  double dx = 0, dy = 0, dz = 0;
+  nifti_dmat44_to_quatern(ras, &nim->quatern_b, &nim->quatern_c, &nim->quatern_d, &nim->qoffset_x,
+                          &nim->qoffset_y, &nim->qoffset_z, &dx, &dy, &dz, &nim->qfac);
   nim->qto_xyz =
-      nifti_quatern_to_mat44(nim->quatern_b, nim->quatern_c, nim->quatern_d, nim->qoffset_x,
-                             nim->qoffset_y, nim->qoffset_z, dx, dy, dz, nim->qfac);
-  nim->qto_ijk = nifti_mat44_inverse(nim->qto_xyz);
+      nifti_quatern_to_dmat44(nim->quatern_b, nim->quatern_c, nim->quatern_d, nim->qoffset_x,
+                              nim->qoffset_y, nim->qoffset_z, dx, dy, dz, nim->qfac);
+  nim->qto_ijk = nifti_dmat44_inverse(nim->qto_xyz);
   nim->qform_code = NIFTI_XFORM_SCANNER_ANAT;
   nim->dx = nim->pixdim[1] = dx;
   nim->dy = nim->pixdim[2] = dy;
@@ -134,7 +135,7 @@ Result<std::vector<uint8_t>> header_bytes(const std::string& path,
   uint32_t max_value = 0;
   for (const VolumeLabel& label : layout.labels) max_value = std::max(max_value, label.value);
   nim->cal_min = 0;
-  nim->cal_max = float(max_value);
+  nim->cal_max = double(max_value);
   std::snprintf(nim->descrip, sizeof(nim->descrip), "osteon label volume");
 
   if (!layout.labels.empty()) {
@@ -146,9 +147,12 @@ Result<std::vector<uint8_t>> header_bytes(const std::string& path,
   size_t offset = sizeof(nifti_1_header) + 4;
   for (int e = 0; e < nim->num_ext; ++e) offset += size_t(nim->ext_list[e].esize);
   offset = (offset + 15) / 16 * 16;
-  nim->iname_offset = int(offset);
+  nim->iname_offset = int64_t(offset);
 
-  nifti_1_header header = nifti_convert_nim2nhdr(nim.get());
+  nifti_1_header header{};
+  if (nifti_convert_nim2n1hdr(nim.get(), &header) != 0) {
+    return bad("libnifti cannot write a NIfTI-1 header for this grid");
+  }
   header.vox_offset = float(offset);
   std::memcpy(header.magic, "n+1\0", 4);
 

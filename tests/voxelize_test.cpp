@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <gtest/gtest.h>
-#include <nifti1_io.h>
+#include <nifti2_io.h>
 
 #include <algorithm>
 #include <cmath>
@@ -47,7 +47,7 @@ struct ReadBack {
   std::array<double, 3> sform_world(size_t i, size_t j, size_t k) const {
     std::array<double, 3> out{};
     for (int r = 0; r < 3; ++r) {
-      const float* m = image->sto_xyz.m[r];
+      const double* m = image->sto_xyz.m[r];
       out[r] = m[0] * double(i) + m[1] * double(j) + m[2] * double(k) + m[3];
     }
     return out;
@@ -63,7 +63,7 @@ ReadBack read_back(const std::string& path) {
   }
   const nifti_image& nim = *out.image;
   out.labels.resize(nim.nvox);
-  for (size_t i = 0; i < nim.nvox; ++i) {
+  for (size_t i = 0; i < size_t(nim.nvox); ++i) {
     if (nim.datatype == DT_UINT8) {
       out.labels[i] = static_cast<const uint8_t*>(nim.data)[i];
     } else if (nim.datatype == DT_UINT16) {
@@ -324,7 +324,7 @@ TEST(Voxelize, SformTurnsOsteonsLeftPosteriorIntoRasNegatives) {
         ASSERT_TRUE(ras[2] >= 1 && ras[2] <= 3) << ras[2];
         // The qform says the same.
         for (int r = 0; r < 3; ++r) {
-          const float* q = v.image->qto_xyz.m[r];
+          const double* q = v.image->qto_xyz.m[r];
           double world = q[0] * double(i) + q[1] * double(j) + q[2] * double(k) + q[3];
           ASSERT_NEAR(world, ras[r], 1e-3);
         }
