@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "bench_gzip.hpp"
+#include "bench_child.hpp"
 #include "bench_markdown.hpp"
 #include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
@@ -55,42 +56,25 @@ struct Run {
 /// Packs in a forked child; the child sends the report back as JSON through a pipe.
 bool pack_in_child(const Dataset& set, const osteon::PackOptions& options, Run* run,
                    std::string* failure) {
-  int fds[2];
-  if (pipe(fds) != 0) return false;
-  const pid_t pid = fork();
-  if (pid == 0) {
-    close(fds[0]);
-    osteon::Result<osteon::PackReport> r = osteon::pack({set.input}, options);
-    nlohmann::json j;
-    if (!r.ok()) {
-      j["error"] = r.status().message();
-    } else {
-      const osteon::PackReport& p = r.value();
-      const osteon::PackTimings& t = p.timings;
-      j = {{"input_bytes", p.input_bytes}, {"output_bytes", p.output_bytes},
-           {"parts", p.parts}, {"prototypes", p.prototypes}, {"components", p.components},
-           {"instances", p.instances}, {"triangles_in", p.triangles_in},
-           {"t", {t.read_ms, t.clean_ms, t.repeats_ms, t.segment_ms, t.encode_ms, t.write_ms,
-                  t.total_ms}}};
-    }
-    const std::string text = j.dump();
-    size_t sent = 0;
-    while (sent < text.size()) {
-      const ssize_t n = write(fds[1], text.data() + sent, text.size() - sent);
-      if (n <= 0) break;
-      sent += size_t(n);
-    }
-    _exit(0);
-  }
-  close(fds[1]);
-  std::string text;
-  char buffer[4096];
-  ssize_t n;
-  while ((n = read(fds[0], buffer, sizeof(buffer))) > 0) text.append(buffer, size_t(n));
-  close(fds[0]);
-  int status = 0;
   rusage usage{};
-  wait4(pid, &status, 0, &usage);
+  const std::string text = osteon_bench::run_in_child(
+      [&] {
+        osteon::Result<osteon::PackReport> r = osteon::pack({set.input}, options);
+        nlohmann::json j;
+        if (!r.ok()) {
+          j["error"] = r.status().message();
+        } else {
+          const osteon::PackReport& p = r.value();
+          const osteon::PackTimings& t = p.timings;
+          j = {{"input_bytes", p.input_bytes}, {"output_bytes", p.output_bytes},
+               {"parts", p.parts}, {"prototypes", p.prototypes}, {"components", p.components},
+               {"instances", p.instances}, {"triangles_in", p.triangles_in},
+               {"t", {t.read_ms, t.clean_ms, t.repeats_ms, t.segment_ms, t.encode_ms, t.write_ms,
+                      t.total_ms}}};
+        }
+        return j.dump();
+      },
+      &usage);
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded() || j.contains("error")) {
     *failure = j.is_discarded() ? "the pack child died" : j["error"].get<std::string>();

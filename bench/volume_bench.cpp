@@ -42,6 +42,7 @@
 #include <vtkWindowedSincPolyDataFilter.h>
 #endif
 
+#include "bench_child.hpp"
 #include "bench_markdown.hpp"
 #include "osteon/diagnose.hpp"
 #include "osteon/hausdorff.hpp"
@@ -98,13 +99,9 @@ void measure(const osteon::LabelVolume& volume, const std::vector<osteon::Mesh>&
 
 /// osteon's extraction of `path`'s selected labels, in a forked child for its peak memory.
 Outcome run_osteon(const std::string& path, const std::vector<std::string>& labels) {
-  int fds[2];
   Outcome out;
   out.method = "osteon Surface Nets + constrained smoothing";
-  if (pipe(fds) != 0) return out;
-  const pid_t pid = fork();
-  if (pid == 0) {
-    close(fds[0]);
+  const std::string text = osteon_bench::run_in_child([&] {
     nlohmann::json j;
     auto start = Clock::now();
     osteon::Result<osteon::LabelVolume> volume = osteon::read_volume(path);
@@ -158,23 +155,8 @@ Outcome run_osteon(const std::string& path, const std::vector<std::string>& labe
              {"voxel_bytes", volume->voxel_count() * uint64_t(volume->bytes_per_voxel)}};
       }
     }
-    const std::string text = j.dump();
-    size_t sent = 0;
-    while (sent < text.size()) {
-      const ssize_t n = write(fds[1], text.data() + sent, text.size() - sent);
-      if (n <= 0) break;
-      sent += size_t(n);
-    }
-    _exit(0);
-  }
-  close(fds[1]);
-  std::string text;
-  char buffer[4096];
-  ssize_t n;
-  while ((n = read(fds[0], buffer, sizeof(buffer))) > 0) text.append(buffer, size_t(n));
-  close(fds[0]);
-  int status = 0;
-  waitpid(pid, &status, 0);
+    return j.dump();
+  });
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded() || j.contains("error")) {
     out.error = j.is_discarded() ? "the child died" : j["error"].get<std::string>();
@@ -376,12 +358,13 @@ int main(int argc, char** argv) {
             << " | " << osteon_bench::sig(o.hausdorff_max, 3) << " / "
             << osteon_bench::sig(o.hausdorff_mean, 3) << " | " << o.closed << " of " << o.labels
             << " | "
-            << (o.peak_mib > 0 ? osteon_bench::fixed(o.peak_mib, 0) + " MiB (" +
-                                     osteon_bench::fixed(o.peak_mib * 1048576.0 /
-                                                             double(std::max<uint64_t>(o.voxel_bytes, 1)),
-                                                         2) +
-                                     "x the voxels)"
-                               : "-")
+            << (o.peak_mib > 0
+                    ? osteon_bench::fixed(o.peak_mib, 0) + " MiB (" +
+                          osteon_bench::fixed(
+                              o.peak_mib * 1048576.0 / double(std::max<uint64_t>(o.voxel_bytes, 1)),
+                              2) +
+                          "x the voxels)"
+                    : "-")
             << " |\n";
     }
   }
