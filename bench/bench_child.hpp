@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <functional>
 #include <string>
 
@@ -18,10 +19,12 @@ namespace osteon_bench {
 inline std::string run_in_child(const std::function<std::string()>& work, rusage* usage = nullptr) {
   int fds[2];
   if (pipe(fds) != 0) return {};
+  std::fflush(nullptr);  // or the child would print this process's pending output again
   const pid_t pid = fork();
   if (pid == 0) {
     close(fds[0]);
     const std::string text = work();
+    std::fflush(nullptr);  // _exit does not flush what the child printed
     size_t sent = 0;
     while (sent < text.size()) {
       const ssize_t n = write(fds[1], text.data() + sent, text.size() - sent);

@@ -282,11 +282,9 @@ int main(int argc, char** argv) {
     // Voxelized in a child, so that this process does not hold the skeleton's meshes (and the
     // osteon children forked later start small).
     const std::string out = (scratch / "bp3d.nii.gz").string();
-    const std::string summary = (scratch / "voxelized.txt").string();
-    const pid_t pid = fork();
-    if (pid == 0) {
+    const std::string label = osteon_bench::run_in_child([&] {
       osteon::Result<osteon::Scene> scene = osteon::read_path(bones.string());
-      if (!scene.ok()) _exit(1);
+      if (!scene.ok()) return std::string();
       osteon::Aabb box;
       for (const osteon::Mesh& part : scene->parts) expand(box, osteon::bounding_box(part));
       const double volume_mm3 =
@@ -295,31 +293,17 @@ int main(int argc, char** argv) {
       options.voxel = std::cbrt(volume_mm3 / target_voxels);
       osteon::VoxelizeReport report;
       const auto start = Clock::now();
-      if (!osteon::voxelize(scene.value(), out, options, &report).ok()) _exit(1);
+      if (!osteon::voxelize(scene.value(), out, options, &report).ok()) return std::string();
       std::printf("voxelized BodyParts3D at %.3f mm: %u x %u x %u in %.0f ms\n", options.voxel,
                   report.size[0], report.size[1], report.size[2], ms_since(start));
-      char label[160];
-      std::snprintf(label, sizeof(label),
+      char text[160];
+      std::snprintf(text, sizeof(text),
                     "BodyParts3D voxelized (%u x %u x %u = %.0f M voxels, %.2f mm), %zu labels",
                     report.size[0], report.size[1], report.size[2], double(report.voxels) / 1e6,
                     options.voxel, scene->parts.size());
-      FILE* f = std::fopen(summary.c_str(), "w");
-      if (f == nullptr) _exit(1);
-      std::fputs(label, f);
-      std::fclose(f);
-      _exit(0);
-    }
-    int status = 0;
-    waitpid(pid, &status, 0);
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
-      std::string label;
-      if (FILE* f = std::fopen(summary.c_str(), "r")) {
-        char buffer[256] = {};
-        if (std::fgets(buffer, sizeof(buffer), f) != nullptr) label = buffer;
-        std::fclose(f);
-      }
-      sets.push_back({label, out, {}, true});
-    }
+      return std::string(text);
+    });
+    if (!label.empty()) sets.push_back({label, out, {}, true});
   }
 
   std::ostringstream table;

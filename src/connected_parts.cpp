@@ -57,6 +57,9 @@ std::vector<Mesh> split_connected(const Mesh& mesh) {
     out[k].source = mesh.source;
     out[k].unit = mesh.unit;
     out[k].unit_source = mesh.unit_source;
+    out[k].has_color = mesh.has_color;
+    out[k].color = mesh.color;
+    out[k].label = mesh.label;
   }
   // Each piece keeps its vertices in their original order.
   std::vector<uint32_t> new_index(mesh.positions.size(), kNone);

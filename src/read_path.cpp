@@ -53,14 +53,7 @@ Result<Scene> read_volume_parts(const std::string& path, const ReadOptions& opti
       continue;
     }
     for (Mesh& piece : split_connected(mesh)) {
-      if (piece.triangle_count() < kSmallestBonePiece) continue;
-      piece.source = path;
-      piece.label = surface.value;
-      piece.unit = mesh.unit;
-      piece.unit_source = mesh.unit_source;
-      piece.has_color = mesh.has_color;
-      piece.color = mesh.color;
-      scene.parts.push_back(std::move(piece));
+      if (piece.triangle_count() >= kSmallestBonePiece) scene.parts.push_back(std::move(piece));
     }
   }
   if (scene.parts.empty()) {

@@ -2,6 +2,7 @@
 #include "fixtures.hpp"
 
 #include <gtest/gtest.h>
+#include <openssl/sha.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -166,6 +167,26 @@ CliRun run_cli(const std::string& args) {
   const auto bytes = read_bytes(err_path);
   run.err.assign(bytes.begin(), bytes.end());
   return run;
+}
+
+std::string sha256_hex(const void* data, size_t size) {
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(static_cast<const unsigned char*>(data), size, digest);
+  char hex[2 * SHA256_DIGEST_LENGTH + 1];
+  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i) std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
+  return hex;
+}
+
+std::string write_phantom(int detail) {
+  PhantomOptions options;
+  options.detail = detail;
+  const Phantom phantom = make_phantom(options);
+  const std::string dir = scratch_dir() + "/phantom";
+  std::filesystem::create_directories(dir);
+  for (const Mesh& part : phantom.scene.parts) {
+    EXPECT_TRUE(write_mesh(dir + "/" + part.name + ".ply", part).ok()) << part.name;
+  }
+  return dir;
 }
 
 }  // namespace osteon::test

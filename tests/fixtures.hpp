@@ -32,6 +32,16 @@ Scene parse_or_fail(const std::string& bytes, const std::string& source,
 /// The error message read_memory gives for these bytes ("" when it succeeds).
 std::string parse_error(const std::string& bytes, const std::string& source);
 
+/// Lower-case hex SHA-256 (OpenSSL's one-shot SHA256, independent of pack's EVP code).
+std::string sha256_hex(const void* data, size_t size);
+inline std::string sha256_hex(const std::vector<uint8_t>& bytes) {
+  return sha256_hex(bytes.data(), bytes.size());
+}
+
+/// The generated phantom skeleton (PhantomOptions::detail) written as one PLY per part into a
+/// fresh folder; returns the folder.
+std::string write_phantom(int detail = 2);
+
 /// What the osteon CLI (the real binary, OSTEON_CLI_PATH) did with some arguments.
 struct CliRun {
   int status = -1;

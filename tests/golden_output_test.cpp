@@ -3,7 +3,6 @@
 // the values recorded when these tests were written. A change to the bytes a user gets (the codec,
 // the package, the manifest) must update these hashes on purpose, and docs/FORMAT.md with them.
 #include <gtest/gtest.h>
-#include <openssl/sha.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -25,14 +24,8 @@ namespace {
 namespace fs = std::filesystem;
 using test::read_bytes;
 using test::scratch_dir;
-
-std::string sha256_hex(const void* data, size_t size) {
-  unsigned char digest[SHA256_DIGEST_LENGTH];
-  SHA256(static_cast<const unsigned char*>(data), size, digest);
-  char hex[2 * SHA256_DIGEST_LENGTH + 1];
-  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i) std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
-  return hex;
-}
+using test::sha256_hex;
+using test::write_phantom;
 
 /// The hash of a folder: SHA-256 of `sha256sum`'s lines for every regular file, sorted by path
 /// (the same as `find . -type f | sort | xargs sha256sum | sha256sum` run inside it).
@@ -50,18 +43,6 @@ std::string tree_hash(const std::string& dir) {
   return sha256_hex(lines.data(), lines.size());
 }
 
-std::string write_phantom_parts(int detail) {
-  PhantomOptions options;
-  options.detail = detail;
-  const Phantom phantom = make_phantom(options);
-  const std::string dir = scratch_dir() + "/phantom";
-  fs::create_directories(dir);
-  for (const Mesh& part : phantom.scene.parts) {
-    EXPECT_TRUE(write_mesh(dir + "/" + part.name + ".ply", part).ok()) << part.name;
-  }
-  return dir;
-}
-
 std::string packed_hash(const std::vector<std::string>& inputs, PackOptions options) {
   options.output = scratch_dir() + "/package";
   options.threads = 2;
@@ -77,7 +58,7 @@ std::string stream_hash(const Mesh& mesh, const EncodeOptions& options) {
 }
 
 TEST(GoldenOutput, PhantomPackages) {
-  const std::string input = write_phantom_parts(2);
+  const std::string input = write_phantom(2);
   PackOptions defaults;
   EXPECT_EQ(packed_hash({input}, defaults),
             "5fa0251719080ba8f1def95179ee2be8de5532bba15acfccad01d8976f2ee3e7");

@@ -2,7 +2,6 @@
 #include "osteon/pack.hpp"
 
 #include <gtest/gtest.h>
-#include <openssl/sha.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -31,28 +30,8 @@ namespace fs = std::filesystem;
 using test::read_bytes;
 using test::run_cli;
 using test::scratch_dir;
-
-/// The expected file name's hash: OpenSSL's one-shot SHA256, independent of pack's EVP code.
-std::string sha256_hex(const std::vector<uint8_t>& bytes) {
-  unsigned char digest[SHA256_DIGEST_LENGTH];
-  SHA256(bytes.data(), bytes.size(), digest);
-  char hex[2 * SHA256_DIGEST_LENGTH + 1];
-  for (int i = 0; i < SHA256_DIGEST_LENGTH; ++i) std::snprintf(hex + 2 * i, 3, "%02x", digest[i]);
-  return hex;
-}
-
-/// The phantom skeleton written as one PLY per part into a fresh folder.
-std::string write_phantom(int detail = 2) {
-  PhantomOptions options;
-  options.detail = detail;
-  const Phantom phantom = make_phantom(options);
-  const std::string dir = scratch_dir() + "/phantom";
-  fs::create_directories(dir);
-  for (const Mesh& part : phantom.scene.parts) {
-    EXPECT_TRUE(write_mesh(dir + "/" + part.name + ".ply", part).ok()) << part.name;
-  }
-  return dir;
-}
+using test::sha256_hex;
+using test::write_phantom;
 
 nlohmann::json read_manifest(const std::string& dir) {
   const std::vector<uint8_t> bytes = read_bytes(dir + "/manifest.json");

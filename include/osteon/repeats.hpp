@@ -159,7 +159,8 @@ double repeat_tolerance(const Mesh& member, const RepeatOptions& options);
 
 /// The vertex-connected pieces of a mesh (triangles sharing a vertex are one piece), each a mesh
 /// of its own with only its vertices, in order of their first triangle, named "name#k" (k from 0)
-/// when there are several; a mesh of one piece comes back whole. Lets a file that holds many bones
+/// when there are several, with the mesh's source, unit, colour and label; a mesh of one piece
+/// comes back whole. Lets a file that holds many bones
 /// (an STL of a whole spine) be searched for repeats bone by bone. O(V + T).
 std::vector<Mesh> split_connected(const Mesh& mesh);
 
