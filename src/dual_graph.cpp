@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/release.hpp"
+
 // The dual graph of the paper's segmentation (section IV.B, after Zhou & Jia 2017 and Katz & Tal
 // 2003). For two triangles across an edge:
 //   CD  the geodesic distance between their centroids through the shared edge: the straight line
@@ -106,7 +108,7 @@ DualGraph build_dual_graph(const Mesh& mesh, const DualGraphOptions& options) {
     }
     begin = end;
   }
-  half = {};
+  release(half);
   g.mean_cd = cd_count > 0 ? cd_sum / double(cd_count) : 0;
   const double scale = g.diagonal > 0 ? 1 / g.diagonal : 1;
   const double angular = options.phi * g.mean_cd;

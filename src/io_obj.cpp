@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/byte_io.hpp"
+#include "core/release.hpp"
 #include "io_internal.hpp"
 
 // Based on: Wavefront "Object Files (.obj)", Appendix B1 of the Advanced Visualizer manual:
@@ -248,7 +249,7 @@ Status ObjReader::read_face(TextReader& text) {
   }
   if (part.all_normals && !with_normals) {
     part.all_normals = false;
-    part.normals = {};
+    release(part.normals);
   }
   if (part.all_normals) {
     for (size_t i = 1; i + 1 < n; ++i) {

@@ -17,6 +17,7 @@
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
+#include "core/release.hpp"
 #include "surface_internal.hpp"
 
 // Based on: S. F. Frisken, "SurfaceNets for multi-label segmentations with preservation of sharp
@@ -568,8 +569,8 @@ std::vector<Vec3> world_positions(const Cells& cells, const std::vector<Vec3>& l
 
 // ---- pass 3: the quads -------------------------------------------------------------------------
 
-/// Triangles one chunk emitted, per output label: 3 global vertex ids each, and the region on
-/// the other side.
+/// Triangles one chunk emitted, per output label: 3 vertex ids of the label's mesh each, and the
+/// region on the other side.
 struct ChunkTriangles {
   std::vector<std::vector<uint32_t>> corners;
   std::vector<std::vector<uint32_t>> other;
@@ -586,6 +587,7 @@ struct EmitContext {
   Grid grid;
   const Cells* cells = nullptr;
   const std::vector<Vec3>* world = nullptr;
+  const std::vector<uint32_t>* local_id = nullptr;  ///< cell vertex -> its label mesh's vertex
   const std::vector<uint32_t>* output_of = nullptr;
   const CubeTables* tables = nullptr;
   bool mirrored = false;
@@ -653,7 +655,7 @@ void emit_chunk(const EmitContext& ctx, uint32_t cz_begin, uint32_t cz_end, Chun
             if (o == kNotSelected) continue;
             uint32_t v[4];
             for (int q = 0; q < 4; ++q)
-              v[q] = cells.vertex(quad[q], id, kEdges[axis][q], *ctx.tables);
+              v[q] = (*ctx.local_id)[cells.vertex(quad[q], id, kEdges[axis][q], *ctx.tables)];
             const bool flip = (side == 1) != ctx.mirrored;
             std::vector<uint32_t>& dst = out.corners[o];
             for (int t = 0; t < 6; t += 3) {
@@ -902,12 +904,12 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
       }
     }
   }
-  local = {};
+  detail::release(local);
 
   // Pass 3: the quads, per chunk and label.
   std::vector<ChunkTriangles> emitted(chunk_count);
   {
-    EmitContext emit{grid,       &cells,  &world,
+    EmitContext emit{grid,       &cells,     &world,  &local_id,
                      &output_of, &tables, determinant3(volume.index_to_world) < 0};
     for_each_chunk(chunk_count, [&](size_t c) {
       auto [begin, end] = chunk_range(c);
@@ -917,7 +919,8 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
     });
   }
 
-  world = {};
+  detail::release(world);
+  detail::release(local_id);
   cells = {};
   for_each_chunk(nets.size(), [&](size_t o) {
     LabelNet& net = nets[o];
@@ -926,14 +929,14 @@ Result<std::vector<LabelSurface>> extract_in_arena(const LabelVolume& volume,
     net.mesh.indices.reserve(corners);
     net.other.reserve(corners / 3);
     for (ChunkTriangles& chunk : emitted) {
-      for (uint32_t g : chunk.corners[o]) net.mesh.indices.push_back(local_id[g]);
+      net.mesh.indices.insert(net.mesh.indices.end(), chunk.corners[o].begin(),
+                              chunk.corners[o].end());
       net.other.insert(net.other.end(), chunk.other[o].begin(), chunk.other[o].end());
-      chunk.corners[o] = {};
-      chunk.other[o] = {};
+      detail::release(chunk.corners[o]);
+      detail::release(chunk.other[o]);
     }
   });
-  emitted = {};
-  local_id = {};
+  detail::release(emitted);
 
   std::vector<uint64_t> extracted(nets.size());
   for (size_t o = 0; o < nets.size(); ++o) {
