@@ -69,9 +69,16 @@ struct BitBox {
   std::array<uint32_t, 3> size{0, 0, 0};  ///< voxels a side; 0: empty
   size_t words_per_row = 0;
   std::vector<uint64_t> bits;
+  /// Voxels set where the part is thinner than the grid resolves (see mark_thin_regions), as
+  /// box-relative indices x + size[0] * (y + size[1] * z). They are written after every part's
+  /// inside, into voxels no inside holds, so that no part of the set vanishes from the volume.
+  std::vector<uint64_t> thin;
 
   size_t row(size_t y, size_t z) const { return (y + size_t{size[1]} * z) * words_per_row; }
   void toggle(size_t x, size_t y, size_t z) { bits[row(y, z) + x / 64] ^= uint64_t{1} << (x % 64); }
+  bool test(size_t x, size_t y, size_t z) const {
+    return (bits[row(y, z) + x / 64] >> (x % 64)) & 1;
+  }
 };
 
 /// Twice the signed area of (a, b, p) projected on the axes u and w: > 0 when p lies to the left
@@ -174,8 +181,92 @@ void accumulate_parity(int axis, BitBox& box) {
   }
 }
 
+/// Where the part is thinner than a voxel, or runs between the voxel centres, the inside test
+/// leaves it few voxels or none, and its surface would come back far from where it was (or not at
+/// all). So the surface is sampled at most a voxel apart per axis, and a sample whose grid cells
+/// (the voxel centres round it) hold none of the part's inside voxels is thin. Thin samples,
+/// nearest their voxel centre first, each set the voxel nearest them unless it, or a neighbour
+/// along the axis nearest the triangle's normal, is set already: a sheet thinner than a voxel
+/// gets one layer of voxels, not one for each face. Every sample then has one of the part's
+/// voxels within a cell and a half, and a vertex of the extracted surface near it. `q` is in
+/// box-relative steps.
+void mark_thin_regions(const std::vector<Int3>& q, const std::vector<uint32_t>& indices,
+                       BitBox& box) {
+  const int64_t n[3] = {box.size[0], box.size[1], box.size[2]};
+  auto set = [&](int64_t x, int64_t y, int64_t z) {
+    return x >= 0 && y >= 0 && z >= 0 && x < n[0] && y < n[1] && z < n[2] &&
+           box.test(size_t(x), size_t(y), size_t(z));
+  };
+  // The voxel centres of the grid cells that hold the point (2 per axis; 3 where the point is
+  // on a centre's plane, between two cells).
+  auto any_in_cells = [&](const int64_t (&p)[3]) {
+    int64_t lo[3], hi[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      lo[axis] = ceil_steps(p[axis]) - 1;
+      hi[axis] = floor_steps(p[axis]) + 1;
+    }
+    for (int64_t z = lo[2]; z <= hi[2]; ++z)
+      for (int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (int64_t x = lo[0]; x <= hi[0]; ++x)
+          if (set(x, y, z)) return true;
+    return false;
+  };
+  struct Sample {
+    double distance;  ///< squared, in steps, to the nearest voxel centre
+    int64_t voxel[3];
+    int axis;  ///< the axis nearest the triangle's normal
+  };
+  std::vector<Sample> thin;
+  for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+    const Int3& a = q[indices[t]];
+    const Int3& b = q[indices[t + 1]];
+    const Int3& c = q[indices[t + 2]];
+    int64_t longest = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      longest = std::max({longest, std::abs(b[axis] - a[axis]), std::abs(c[axis] - b[axis]),
+                          std::abs(a[axis] - c[axis])});
+    }
+    const Vec3d normal = cross(Vec3d{double(b[0] - a[0]), double(b[1] - a[1]), double(b[2] - a[2])},
+                               Vec3d{double(c[0] - a[0]), double(c[1] - a[1]), double(c[2] - a[2])});
+    const double m[3] = {std::abs(normal.x), std::abs(normal.y), std::abs(normal.z)};
+    const int axis = m[0] >= m[1] && m[0] >= m[2] ? 0 : (m[1] >= m[2] ? 1 : 2);
+    // Samples on a triangular lattice of `steps` intervals a side: under a voxel apart per axis.
+    const int64_t steps = std::max<int64_t>(1, (longest + kStep - 1) / kStep);
+    for (int64_t i = 0; i <= steps; ++i) {
+      for (int64_t j = 0; i + j <= steps; ++j) {
+        const double wb = double(i) / double(steps), wc = double(j) / double(steps);
+        int64_t p[3];
+        Sample sample{0, {0, 0, 0}, axis};
+        bool inside = true;
+        for (int k = 0; k < 3; ++k) {
+          p[k] = a[k] + std::llround(wb * double(b[k] - a[k]) + wc * double(c[k] - a[k]));
+          sample.voxel[k] = floor_steps(p[k] + kStep / 2);
+          const double d = double(p[k] - sample.voxel[k] * kStep);
+          sample.distance += d * d;
+          inside &= sample.voxel[k] >= 0 && sample.voxel[k] < n[k];
+        }
+        if (inside && !any_in_cells(p)) thin.push_back(sample);
+      }
+    }
+  }
+  std::sort(thin.begin(), thin.end(),
+            [](const Sample& x, const Sample& y) { return x.distance < y.distance; });
+  for (const Sample& sample : thin) {
+    const int64_t* v = sample.voxel;
+    int64_t below[3] = {v[0], v[1], v[2]}, above[3] = {v[0], v[1], v[2]};
+    --below[sample.axis];
+    ++above[sample.axis];
+    if (set(v[0], v[1], v[2]) || set(below[0], below[1], below[2]) ||
+        set(above[0], above[1], above[2]))
+      continue;
+    box.toggle(size_t(v[0]), size_t(v[1]), size_t(v[2]));
+    box.thin.push_back(uint64_t(v[0]) + uint64_t(n[0]) * (uint64_t(v[1]) + uint64_t(n[1]) * v[2]));
+  }
+}
+
 /// The voxels of `grid` inside `part`, in the part's own box (the voxel centres within its
-/// bounding box): parity along x, y and z, two votes of three.
+/// bounding box and one more on every side): parity along x, y and z, two votes of three, and
+/// the thin regions' voxels.
 BitBox voxelize_part(const Mesh& part, const Grid& grid) {
   BitBox box;
   if (part.indices.empty()) return box;
@@ -198,8 +289,8 @@ BitBox voxelize_part(const Mesh& part, const Grid& grid) {
   }
   std::array<int64_t, 3> lo{}, hi{};
   for (int a = 0; a < 3; ++a) {
-    lo[a] = std::max<int64_t>(0, ceil_steps(qmin[a]));
-    hi[a] = std::min<int64_t>(int64_t{grid.size[a]} - 1, floor_steps(qmax[a]));
+    lo[a] = std::max<int64_t>(0, ceil_steps(qmin[a]) - 1);
+    hi[a] = std::min<int64_t>(int64_t{grid.size[a]} - 1, floor_steps(qmax[a]) + 1);
     if (lo[a] > hi[a]) return box;  // no voxel centre within the part's box
   }
   for (size_t v = 0; v < q.size(); ++v) {
@@ -230,6 +321,7 @@ BitBox voxelize_part(const Mesh& part, const Grid& grid) {
     for (size_t r = 0; r < size_t{box.size[1]} * box.size[2]; ++r)
       box.bits[(r + 1) * box.words_per_row - 1] &= keep;
   }
+  mark_thin_regions(q, part.indices, box);
   return box;
 }
 
@@ -322,6 +414,23 @@ uint64_t fill_slab(const std::vector<BitBox>& boxes, const Grid& grid, int bytes
               std::memcpy(slab + 2 * at, &label, 2);
           }
         }
+      }
+    }
+  }
+  // Then the thin regions, where no part's inside is.
+  for (size_t k = 0; k < boxes.size(); ++k) {
+    const BitBox& box = boxes[k];
+    const uint16_t label = uint16_t(k + 1);
+    const size_t plane = size_t{box.size[0]} * box.size[1];
+    for (uint64_t v : box.thin) {
+      const uint32_t z = box.lo[2] + uint32_t(v / plane);
+      if (z < k0 || z >= k1) continue;
+      const size_t x = box.lo[0] + v % box.size[0], y = box.lo[1] + (v % plane) / box.size[0];
+      const size_t at = x + nx * (y + ny * (z - k0));
+      if (bytes_per_voxel == 1) {
+        if (slab[at] == 0) slab[at] = uint8_t(label);
+      } else if ((slab[2 * at] | slab[2 * at + 1]) == 0) {
+        std::memcpy(slab + 2 * at, &label, 2);
       }
     }
   }

@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "fixtures.hpp"
+#include "osteon/diagnose.hpp"
+#include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
 #include "osteon/volume.hpp"
 #include "support/phantom.hpp"
@@ -295,6 +297,43 @@ TEST(Voxelize, TwoPartsGetLabelsOneAndTwoWithTheirNames) {
   EXPECT_NE(v.extension.find("<Label Key=\"2\""), std::string::npos);
   EXPECT_NE(v.extension.find("<![CDATA[Right]]]]><![CDATA[>femur]]>"), std::string::npos)
       << v.extension;
+}
+
+TEST(Voxelize, PartsThinnerThanAVoxelKeepVoxelsAndComeBackNearTheirSurface) {
+  // The box sets the grid (voxel centres on whole mm); the plate, 0.3 mm thick, lies between two
+  // planes of centres, and the rod, 0.4 mm across, between four rows: neither holds a centre.
+  Scene scene = scene_of({named(make_box({0, 0, 0}, {4, 4, 4}), "box"),
+                          named(make_box({0, 6, 10.3f}, {8, 14, 10.6f}), "plate"),
+                          named(make_box({10.3f, 0.3f, 0}, {10.7f, 0.7f, 9}), "rod")});
+  const std::string path = test::scratch_dir() + "/thin.nii.gz";
+  VoxelizeOptions options;
+  options.voxel = 1;
+  ASSERT_TRUE(voxelize(scene, path, options).ok());
+  ReadBack v = read_back(path);
+  ASSERT_TRUE(v.image);
+  EXPECT_EQ(count_label(v, 1), 4u * 4u * 4u);  // a part the grid resolves keeps its inside only
+  // One layer of voxels for the plate and its rim, not a layer for each face (they round to two
+  // planes of centres); a column or two for the rod.
+  EXPECT_GE(count_label(v, 2), 9u * 9u);
+  EXPECT_LT(count_label(v, 2), 2u * 9u * 9u);
+  EXPECT_GE(count_label(v, 3), 10u);
+  EXPECT_LE(count_label(v, 3), 3u * 10u);
+  Result<LabelVolume> volume = read_volume(path);
+  ASSERT_TRUE(volume.ok()) << volume.status().message();
+  Result<std::vector<LabelSurface>> surfaces = extract_surfaces(volume.value());
+  ASSERT_TRUE(surfaces.ok()) << surfaces.status().message();
+  ASSERT_EQ(surfaces->size(), 3u);
+  for (const LabelSurface& s : surfaces.value()) {
+    const Mesh& original = scene.parts.at(s.value - 1);
+    EXPECT_TRUE(diagnose(s.mesh).closed) << original.name;
+    if (s.value == 1) continue;
+    // Each sample of the surface has a vertex of the extracted one in its grid cell; the
+    // smoothed surface between them stays within a voxel and a half.
+    Result<HausdorffReport> h = hausdorff(s.mesh, original, HausdorffOptions{});
+    ASSERT_TRUE(h.ok()) << h.status().message();
+    EXPECT_LE(h->symmetric.max, 1.5 * options.voxel) << original.name;
+    EXPECT_LE(h->symmetric.mean, 0.6 * options.voxel) << original.name;
+  }
 }
 
 TEST(Voxelize, SformTurnsOsteonsLeftPosteriorIntoRasNegatives) {
