@@ -1,4 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -22,6 +24,18 @@ namespace {
 /// beam-hardening), not bones.
 constexpr size_t kSmallestBonePiece = 64;
 
+/// The shortest of the voxel's three sides, in mm.
+double smallest_voxel_side(const LabelVolume& volume) {
+  double side = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double* column = &volume.index_to_world[4 * axis];
+    const double length = std::sqrt(column[0] * column[0] + column[1] * column[1] +
+                                    column[2] * column[2]);
+    side = axis == 0 ? length : std::min(side, length);
+  }
+  return side;
+}
+
 /// A label volume's surfaces as parts, one per label (or, for a thresholded CT, one per connected
 /// piece).
 Result<Scene> read_volume_parts(const std::string& path, const ReadOptions& options) {
@@ -31,6 +45,9 @@ Result<Scene> read_volume_parts(const std::string& path, const ReadOptions& opti
   SurfaceOptions surface_options;
   OSTEON_ASSIGN_OR_RETURN(surface_options.labels, select_labels(volume, options.labels));
   surface_options.precision = options.surface_precision;
+  if (!(surface_options.precision > 0) && options.surface_precision_voxels > 0) {
+    surface_options.precision = options.surface_precision_voxels * smallest_voxel_side(volume);
+  }
   surface_options.smoothing_iterations = options.smoothing_iterations;
   OSTEON_ASSIGN_OR_RETURN(std::vector<LabelSurface> surfaces,
                           extract_surfaces(volume, surface_options));

@@ -90,6 +90,62 @@ std::vector<std::pair<uint32_t, std::vector<uint32_t>>> group_by_other(const Lab
   return groups;
 }
 
+/// Patches larger than this many triangles are cut into tiles (see split_into_tiles).
+constexpr size_t kTileTriangles = 16384;
+
+/// Cuts a large patch into tiles of at most kTileTriangles by halving it at the median of its
+/// triangles' centroids along the longest side, again and again (a k-d tree). Each tile is a
+/// patch: simplified on its own, in parallel with the others, its border with the next tile
+/// locked like any patch border, and re-run on its own where a check fails, so the cost of a
+/// failure stays local instead of re-running a whole skull. The seams keep their extracted
+/// vertices, a few percent of a tile's.
+void split_into_tiles(const LabelNet& owner, Patch patch, std::vector<Patch>& out) {
+  const size_t n = patch.owner_triangles.size();
+  if (n <= kTileTriangles) {
+    patch.frozen.assign(n, 0);
+    out.push_back(std::move(patch));
+    return;
+  }
+  std::vector<Vec3> centroid(n);
+  Vec3 lo{0, 0, 0}, hi{0, 0, 0};
+  for (size_t k = 0; k < n; ++k) {
+    const uint32_t* f = &owner.mesh.indices[3 * size_t(patch.owner_triangles[k])];
+    const Vec3 &a = owner.mesh.positions[f[0]], &b = owner.mesh.positions[f[1]],
+               &c = owner.mesh.positions[f[2]];
+    centroid[k] = {(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3, (a.z + b.z + c.z) / 3};
+    lo = k == 0 ? centroid[k] : Vec3{std::min(lo.x, centroid[k].x), std::min(lo.y, centroid[k].y),
+                                     std::min(lo.z, centroid[k].z)};
+    hi = k == 0 ? centroid[k] : Vec3{std::max(hi.x, centroid[k].x), std::max(hi.y, centroid[k].y),
+                                     std::max(hi.z, centroid[k].z)};
+  }
+  const float extent[3] = {hi.x - lo.x, hi.y - lo.y, hi.z - lo.z};
+  const int axis = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0
+                   : extent[1] >= extent[2]                         ? 1
+                                                                    : 2;
+  auto coordinate = [&](size_t k) { return (&centroid[k].x)[axis]; };
+  std::vector<size_t> order(n);
+  for (size_t k = 0; k < n; ++k) order[k] = k;
+  std::nth_element(order.begin(), order.begin() + n / 2, order.end(), [&](size_t a, size_t b) {
+    return coordinate(a) < coordinate(b) || (coordinate(a) == coordinate(b) && a < b);
+  });
+  for (int half = 0; half < 2; ++half) {
+    std::vector<size_t> pick(order.begin() + (half ? n / 2 : 0),
+                             half ? order.end() : order.begin() + n / 2);
+    std::sort(pick.begin(), pick.end());  // the patch's triangle order, for determinism
+    Patch tile;
+    tile.owner = patch.owner;
+    tile.partner = patch.partner;
+    tile.other = patch.other;
+    for (size_t k : pick) {
+      tile.owner_triangles.push_back(patch.owner_triangles[k]);
+      if (!patch.partner_triangles.empty()) {
+        tile.partner_triangles.push_back(patch.partner_triangles[k]);
+      }
+    }
+    split_into_tiles(owner, std::move(tile), out);
+  }
+}
+
 std::vector<Patch> find_patches(const std::vector<LabelNet>& nets,
                                 const std::vector<uint32_t>& output_of_id) {
   std::vector<std::vector<std::pair<uint32_t, std::vector<uint32_t>>>> groups(nets.size());
@@ -114,8 +170,7 @@ std::vector<Patch> find_patches(const std::vector<LabelNet>& nets,
         // Extraction lists the shared triangles once for each side.
         assert(patch.partner_triangles.size() == patch.owner_triangles.size());
       }
-      patch.frozen.assign(patch.owner_triangles.size(), 0);
-      patches.push_back(std::move(patch));
+      split_into_tiles(nets[o], std::move(patch), patches);
     }
   }
   return patches;

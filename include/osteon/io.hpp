@@ -40,6 +40,10 @@ struct ReadOptions {
   std::optional<double> threshold;
   /// > 0: simplify each label's surface to this error bound, in mm (SurfaceOptions::precision).
   double surface_precision = 0;
+  /// When surface_precision is 0 and this is > 0: simplify to this fraction of the volume's
+  /// smallest voxel side (a surface from voxels is only known to within a voxel, so a thin-slice
+  /// CT's surfaces need not keep every voxel's triangles). osteon pack sets it.
+  double surface_precision_voxels = 0;
   /// Constrained smoothing passes over each surface (SurfaceOptions::smoothing_iterations).
   int smoothing_iterations = 16;
 };

@@ -59,8 +59,9 @@ struct PackOptions {
   /// anything under c/.
   std::string viewer;
   /// How inputs are read (read_path): label volumes' --labels, --threshold and smoothing. A label
-  /// volume's surfaces are simplified to `precision` unless read.surface_precision is set.
-  ReadOptions read;
+  /// volume's surfaces are simplified to read.surface_precision, else to `precision`, else to
+  /// read.surface_precision_voxels of a voxel (by default a quarter).
+  ReadOptions read{.surface_precision_voxels = 0.25};
   /// Called as each stage advances (stage, units done, units in the stage), from the calling
   /// thread; for progress bars. May be empty.
   std::function<void(PackStage stage, uint64_t done, uint64_t total)> progress;
