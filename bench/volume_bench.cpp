@@ -54,9 +54,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using osteon_bench::ms_since;
 
 /// What one method made of one volume.
 struct Outcome {

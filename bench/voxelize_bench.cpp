@@ -38,9 +38,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using osteon_bench::ms_since;
 
 /// One bone's round trip: the distances in mm (negative lost: no surface came back).
 struct Trip {
