@@ -240,7 +240,7 @@ std::string measure_dense(const std::string& bones, double voxel,
     }
     const uint64_t triangles = r["triangles"];
     const double peak = double(usage.ru_maxrss) / 1024.0;
-    const std::string what = precision > 0 ? "simplified to " + osteon_bench::fixed(precision, 2) +
+    const std::string what = precision > 0 ? "simplified to " + osteon_bench::sig(precision, 3) +
                                                  " mm"
                                            : std::string("extracted (Surface Nets, 16 passes)");
     std::printf("  %-40s %llu triangles (%.1fx the source), %.0f ms, %.0f MiB peak\n",
