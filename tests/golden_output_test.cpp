@@ -59,8 +59,12 @@ std::string stream_hash(const Mesh& mesh, const EncodeOptions& options) {
 
 TEST(GoldenOutput, PhantomPackages) {
   const std::string input = write_phantom(2);
-  PackOptions defaults;
+  PackOptions defaults;  // 0.05 mm in the parts' unit
   EXPECT_EQ(packed_hash({input}, defaults),
+            "9e2fef8e09d8485985631095b14b4f8b31ba1f3d5f774debb94611103cf1f57d");
+  PackOptions bits;  // the default before the absolute one: 14 bits over each part's size
+  bits.bits = 14;
+  EXPECT_EQ(packed_hash({input}, bits),
             "5fa0251719080ba8f1def95179ee2be8de5532bba15acfccad01d8976f2ee3e7");
   PackOptions segmented;
   segmented.max_triangles = 500;
@@ -100,6 +104,9 @@ TEST(GoldenOutput, MyoSimPackageWithMirroredRepeats) {
   PackOptions options;
   options.precision = 0.00005;  // metres
   EXPECT_EQ(packed_hash({data + "/MyoHub__myo_sim/meshes"}, options),
+            "562e11708aca15acfcf68a649ab39d6b161712a483e391841f39c9e86730933d");
+  // The default, 0.05 mm, is the same bound in MyoSim's metres.
+  EXPECT_EQ(packed_hash({data + "/MyoHub__myo_sim/meshes"}, PackOptions{}),
             "562e11708aca15acfcf68a649ab39d6b161712a483e391841f39c9e86730933d");
 }
 

@@ -55,6 +55,8 @@ struct Scene {
 
 /// "mm", "cm", "m", "in" or "unknown".
 const char* unit_name(Unit unit);
+/// How many millimetres one `unit` is (1 for kUnknown: unknown data is taken as millimetres).
+double unit_in_millimetres(Unit unit);
 /// Parses "mm", "cm", "m", "in" (and the long names); returns false for anything else.
 bool parse_unit(const std::string& text, Unit* unit);
 /// Guesses the unit of a scene of human bones from its size: a skeleton part spans 5 mm to 2 m, so

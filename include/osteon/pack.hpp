@@ -33,10 +33,14 @@ struct PackOptions {
   /// The package folder; created when absent. Existing files other than the ones written are
   /// left alone.
   std::string output;
-  /// Quantization (EncodeOptions's meaning): bits per coordinate over each part's largest
-  /// bounding-box side, or, when precision > 0, the largest coordinate error in mesh units.
-  int bits = 14;
+  /// Quantization. By default every coordinate stays within `precision_mm` millimetres of the
+  /// input, in each part's unit (a part of unknown unit counts as millimetres): one bound for a
+  /// phalanx and a femur alike. bits > 0 instead: bits per coordinate over each part's largest
+  /// bounding-box side (EncodeOptions::bits, 8..24). precision > 0 instead: the largest
+  /// coordinate error in mesh units.
+  int bits = 0;
   double precision = 0;
+  double precision_mm = 0.05;
   /// The tolerance of a repeat substitution in mesh units; 0: the codec's own bound
   /// (RepeatOptions::tolerance).
   double repeat_tolerance = 0;

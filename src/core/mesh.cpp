@@ -24,6 +24,21 @@ const char* unit_name(Unit unit) {
   return "unknown";
 }
 
+double unit_in_millimetres(Unit unit) {
+  switch (unit) {
+    case Unit::kCentimetre:
+      return 10;
+    case Unit::kMetre:
+      return 1000;
+    case Unit::kInch:
+      return 25.4;
+    case Unit::kMillimetre:
+    case Unit::kUnknown:
+      break;
+  }
+  return 1;
+}
+
 bool parse_unit(const std::string& text, Unit* unit) {
   std::string t = text;
   std::transform(t.begin(), t.end(), t.begin(), [](unsigned char c) { return std::tolower(c); });

@@ -157,13 +157,29 @@ Result<ViewerFiles> read_viewer(const std::string& root) {
   return files;
 }
 
+/// The codec's bits or precision for a part in `unit`, as PackOptions says.
+EncodeOptions quantization(const PackOptions& options, Unit unit) {
+  EncodeOptions q;
+  if (options.precision > 0) {
+    q.precision = options.precision;
+  } else if (options.bits > 0) {
+    q.bits = options.bits;
+  } else {
+    q.precision = options.precision_mm / unit_in_millimetres(unit);
+  }
+  return q;
+}
+
 Status check_options(const std::vector<std::string>& inputs, const PackOptions& options) {
   if (inputs.empty()) return error(ErrorCode::kInvalidArgument, "pack", "no input given");
   if (options.output.empty()) {
     return error(ErrorCode::kInvalidArgument, "pack", "no output folder given");
   }
-  if (options.bits < 8 || options.bits > 24) {
+  if (options.bits != 0 && (options.bits < 8 || options.bits > 24)) {
     return error(ErrorCode::kInvalidArgument, "pack", "bits must be in 8..24");
+  }
+  if (!(options.precision_mm > 0) || !std::isfinite(options.precision_mm)) {
+    return error(ErrorCode::kInvalidArgument, "pack", "the default precision must be > 0 mm");
   }
   if (options.chunk_bytes == 0) {
     return error(ErrorCode::kInvalidArgument, "pack", "chunk bytes must be at least 1");
@@ -254,8 +270,10 @@ Result<Repeats> repeats_stage(const std::vector<Mesh>& parts, const PackOptions&
     progress(PackStage::kRepeats, 0, parts.size());
     RepeatOptions repeat_options;
     repeat_options.tolerance = options.repeat_tolerance;
-    repeat_options.bits = options.bits;
-    repeat_options.precision = options.precision;
+    // A package has one unit, the first part's (the manifest's).
+    const EncodeOptions q = quantization(options, parts.empty() ? Unit::kUnknown : parts[0].unit);
+    repeat_options.bits = q.bits;
+    repeat_options.precision = q.precision;
     repeat_options.threads = options.threads;
     OSTEON_ASSIGN_OR_RETURN(RepeatReport repeats, find_repeats(parts, repeat_options));
     for (const RepeatGroup& group : repeats.groups) {
@@ -351,9 +369,7 @@ Result<EncodedParts> encode_stage(const std::vector<Mesh>& parts,
   // side, or 2 * --precision), then shared by its pieces.
   std::vector<QuantizationGrid> grid_of(parts.size());
   for (size_t p : prototypes) {
-    EncodeOptions part_options;
-    part_options.bits = options.bits;
-    part_options.precision = options.precision;
+    const EncodeOptions part_options = quantization(options, parts[p].unit);
     Result<QuantizationGrid> grid = choose_grid(parts[p].positions, part_options);
     if (!grid.ok()) return error(grid.status().code(), parts[p].source, grid.status().message());
     grid_of[p] = grid.value();

@@ -106,11 +106,11 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
   cmd->add_option("inputs", args->inputs, "mesh files, folders of parts or label volumes (.nii, .nii.gz, .nrrd, .nhdr)")->required();
   cmd->add_option("-o,--output", args->options.output, "package folder")->required();
   CLI::Option* bits = cmd->add_option("--bits", args->options.bits,
-                                      "bits per coordinate over a part's size (8..24, default 14)")
+                                      "bits per coordinate over a part's size (8..24), instead of the default 0.05 mm")
                           ->check(CLI::Range(8, 24));
   CLI::Option* precision =
       cmd->add_option("--precision", args->options.precision,
-                      "largest coordinate error in mesh units (instead of --bits)")
+                      "largest coordinate error in mesh units (default: 0.05 mm in the parts' unit)")
           ->check(CLI::PositiveNumber);
   bits->excludes(precision);
   cmd->add_option("--repeat-tolerance", args->options.repeat_tolerance,
