@@ -81,8 +81,8 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     site = path.join(work, 'site');
     mkdirSync(site);
     osteon('phantom', '-o', path.join(work, 'phantom-src'));
-    // Chunks of at most 12 KB: the phantom's 40 KB come in several.
-    phantomManifest = pack([path.join(work, 'phantom-src')], path.join(site, 'phantom'), ['--chunk-bytes', '12000']);
+    // Chunks of at most 6 KB: the phantom's 18 KB come in several.
+    phantomManifest = pack([path.join(work, 'phantom-src')], path.join(site, 'phantom'), ['--chunk-bytes', '6000']);
     server = await serve(site);
     browser = await launchBrowser();
   });
