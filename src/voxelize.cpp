@@ -69,10 +69,6 @@ struct BitBox {
   std::array<uint32_t, 3> size{0, 0, 0};  ///< voxels a side; 0: empty
   size_t words_per_row = 0;
   std::vector<uint64_t> bits;
-  /// Voxels set where the part is thinner than the grid resolves (see mark_thin_regions), as
-  /// box-relative indices x + size[0] * (y + size[1] * z). They are written after every part's
-  /// inside, into voxels no inside holds, so that no part of the set vanishes from the volume.
-  std::vector<uint64_t> thin;
 
   size_t row(size_t y, size_t z) const { return (y + size_t{size[1]} * z) * words_per_row; }
   void toggle(size_t x, size_t y, size_t z) { bits[row(y, z) + x / 64] ^= uint64_t{1} << (x % 64); }
@@ -188,8 +184,9 @@ void accumulate_parity(int axis, BitBox& box) {
 /// nearest their voxel centre first, each set the voxel nearest them unless it, or a neighbour
 /// along the axis nearest the triangle's normal, is set already: a sheet thinner than a voxel
 /// gets one layer of voxels, not one for each face. Every sample then has one of the part's
-/// voxels within a cell and a half, and a vertex of the extracted surface near it. `q` is in
-/// box-relative steps.
+/// voxels within a cell and a half, and a vertex of the extracted surface near it. The voxels set
+/// join the part's inside (a later part's inside takes them, as for any voxel inside two parts).
+/// `q` is in box-relative steps.
 void mark_thin_regions(const std::vector<Int3>& q, const std::vector<uint32_t>& indices,
                        BitBox& box) {
   const int64_t n[3] = {box.size[0], box.size[1], box.size[2]};
@@ -260,7 +257,6 @@ void mark_thin_regions(const std::vector<Int3>& q, const std::vector<uint32_t>& 
         set(above[0], above[1], above[2]))
       continue;
     box.toggle(size_t(v[0]), size_t(v[1]), size_t(v[2]));
-    box.thin.push_back(uint64_t(v[0]) + uint64_t(n[0]) * (uint64_t(v[1]) + uint64_t(n[1]) * v[2]));
   }
 }
 
@@ -414,23 +410,6 @@ uint64_t fill_slab(const std::vector<BitBox>& boxes, const Grid& grid, int bytes
               std::memcpy(slab + 2 * at, &label, 2);
           }
         }
-      }
-    }
-  }
-  // Then the thin regions, where no part's inside is.
-  for (size_t k = 0; k < boxes.size(); ++k) {
-    const BitBox& box = boxes[k];
-    const uint16_t label = uint16_t(k + 1);
-    const size_t plane = size_t{box.size[0]} * box.size[1];
-    for (uint64_t v : box.thin) {
-      const uint32_t z = box.lo[2] + uint32_t(v / plane);
-      if (z < k0 || z >= k1) continue;
-      const size_t x = box.lo[0] + v % box.size[0], y = box.lo[1] + (v % plane) / box.size[0];
-      const size_t at = x + nx * (y + ny * (z - k0));
-      if (bytes_per_voxel == 1) {
-        if (slab[at] == 0) slab[at] = uint8_t(label);
-      } else if ((slab[2 * at] | slab[2 * at + 1]) == 0) {
-        std::memcpy(slab + 2 * at, &label, 2);
       }
     }
   }
