@@ -86,7 +86,7 @@ Result<Scene> read_volume_parts(const std::string& path, const ReadOptions& opti
 Result<Scene> read_path(const std::string& path, const ReadOptions& options) {
   if (is_volume_path(path)) return read_volume_parts(path, options);
   if (!is_package(path)) return read_meshes(path, options);
-  OSTEON_ASSIGN_OR_RETURN(Scene scene, read_package(path));
+  OSTEON_ASSIGN_OR_RETURN(Scene scene, read_package(path, options.package_level));
   // The manifest's unit stands unless the caller gives one or it is unknown.
   const bool unit_known = !scene.parts.empty() && scene.parts.front().unit != Unit::kUnknown;
   if (options.unit != Unit::kUnknown || !unit_known) detail::assign_unit(options, &scene);

@@ -62,7 +62,7 @@ TEST(Pack, PhantomPackageReproducesEveryPart) {
 
   const nlohmann::json manifest = read_manifest(out);
   EXPECT_EQ(manifest["format"], "osteon-package");
-  EXPECT_EQ(manifest["version"], 2);
+  EXPECT_EQ(manifest["version"], kManifestVersion);
   EXPECT_EQ(manifest["parts"].size(), report.parts);
   EXPECT_EQ(manifest["components"].size(), report.components);
   EXPECT_EQ(manifest["instances"].size(), report.instances);
@@ -346,7 +346,8 @@ TEST(Pack, ReportsEveryStageInOrder) {
   ASSERT_TRUE(report.ok()) << report.status().message();
   const std::vector<PackStage> expected = {PackStage::kRead,    PackStage::kClean,
                                            PackStage::kRepeats, PackStage::kSegment,
-                                           PackStage::kEncode,  PackStage::kWrite};
+                                           PackStage::kLevels,  PackStage::kEncode,
+                                           PackStage::kWrite};
   EXPECT_EQ(stages, expected);
   for (const auto& [stage, counts] : last) {
     EXPECT_EQ(counts.first, counts.second) << stage_name(stage) << " ends complete";

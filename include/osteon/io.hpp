@@ -46,6 +46,10 @@ struct ReadOptions {
   double surface_precision_voxels = 0;
   /// Constrained smoothing passes over each surface (SurfaceOptions::smoothing_iterations).
   int smoothing_iterations = 16;
+
+  /// A package is read with every component at this level of detail, counted from its coarsest
+  /// (0), or at full resolution where it has fewer levels; -1: full resolution (read_package).
+  int package_level = -1;
 };
 
 /// Reads any input osteon takes: a package folder written by osteon pack (read_package: its parts

@@ -14,19 +14,20 @@
 
 // The whole pipeline in one call (docs/DESIGN.md "The pipeline"): read every input -> clean each
 // part -> find repeated parts -> segment each prototype part into components no larger than
-// max_triangles -> encode each component -> write content-hashed chunk files and the manifest
-// (docs/FORMAT.md "Package, version 2"; the manifest's types are in osteon/package.hpp).
+// max_triangles -> coarser levels of each large component -> encode every level -> write
+// content-hashed chunk files and the manifest (docs/FORMAT.md "Package, version 3"; the
+// manifest's types are in osteon/package.hpp).
 
 namespace osteon {
 
 /// The pipeline's stages, in order, as PackOptions::progress reports them. Units: inputs (read),
 /// parts (clean, repeats), prototype parts (segment), components (encode), files (write).
-enum class PackStage { kRead, kClean, kRepeats, kSegment, kEncode, kWrite };
+enum class PackStage { kRead, kClean, kRepeats, kSegment, kLevels, kEncode, kWrite };
 
-/// "read", "clean", "repeats", "segment", "encode", "write".
+/// "read", "clean", "repeats", "segment", "levels", "encode", "write".
 const char* stage_name(PackStage stage);
 /// What PackOptions::progress counts in `stage`: "inputs", "parts", "parts", "parts",
-/// "components", "files".
+/// "components" (levels: the components that get levels; encode), "files".
 const char* stage_unit(PackStage stage);
 
 struct PackOptions {
@@ -47,6 +48,13 @@ struct PackOptions {
   /// The largest component, in triangles. Parts with at most this many triangles stay whole;
   /// larger ones are segmented (segment() with SegmentOptions::max_triangles). 0: never segment.
   uint32_t max_triangles = 20000;
+  /// Levels of detail (docs/FORMAT.md "Levels of detail"): every component with more than this
+  /// many triangles also gets a chain of coarser levels, each about a quarter of the next, the
+  /// coarsest first in the stream. 0: no levels.
+  uint32_t lod_min_triangles = 1024;
+  /// At most this many levels per component, the full one included; 0: as many as the chain
+  /// gives (down to a few hundred triangles); 1: no levels (--no-lod).
+  int levels = 0;
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
   /// docs/FORMAT.md); empty: display names are the part names.
   std::string names;
@@ -77,6 +85,7 @@ struct PackTimings {
   double clean_ms = 0;
   double repeats_ms = 0;
   double segment_ms = 0;
+  double levels_ms = 0;
   double encode_ms = 0;
   double write_ms = 0;
   double total_ms = 0;
@@ -94,7 +103,13 @@ struct PackReport {
   size_t files = 0;  ///< chunk files (equal streams are stored once)
   size_t instances = 0;
   uint64_t triangles_in = 0;   ///< over all parts after cleaning
-  uint64_t triangles_out = 0;  ///< over the stored components
+  uint64_t triangles_out = 0;  ///< over the stored components, at full resolution
+  size_t level_streams = 0;    ///< coarser levels stored, over all components
+  uint64_t level_triangles = 0;  ///< their triangles
+  uint64_t level_bytes = 0;      ///< their bytes (in output_bytes)
+  /// The chunks that hold every component's first (coarsest) stream: what a viewer reads before
+  /// the whole skeleton is drawn.
+  uint64_t first_bytes = 0;
   std::string manifest;        ///< path of manifest.json
   PackTimings timings;
 };

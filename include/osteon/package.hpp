@@ -10,15 +10,15 @@
 #include "osteon/status.hpp"
 #include "osteon/vec.hpp"
 
-// The package format (docs/FORMAT.md "Package, version 2") as plain data: what osteon pack
+// The package format (docs/FORMAT.md "Package, version 3") as plain data: what osteon pack
 // writes, what read_package and the viewer (web/viewer/manifest.mjs) read. One writer and one
 // parser; both the C++ parser and the viewer's are tested on the same golden manifests
 // (tests/data/manifests).
 
 namespace osteon {
 
-/// The manifest version this build writes and reads.
-inline constexpr int kManifestVersion = 2;
+/// The manifest version this build writes (it reads this one and version 2, which has no levels).
+inline constexpr int kManifestVersion = 3;
 
 /// A chunk file: component streams concatenated in stream order.
 struct ManifestChunk {
@@ -38,7 +38,20 @@ struct ManifestPart {
   Vec3 color{0, 0, 0};     ///< sRGB, each 0..1
 };
 
-/// One encoded stream: a byte range of a chunk.
+/// A coarser level of detail of a component (docs/FORMAT.md "Levels of detail").
+struct ManifestLevel {
+  uint64_t chunk = 0;  ///< index into Manifest::chunks
+  uint64_t offset = 0;
+  uint64_t bytes = 0;
+  uint64_t triangles = 0;
+  uint64_t vertices = 0;
+  /// Measured (sampled Hausdorff) distance from the full level before quantization, plus the
+  /// component's error_bound; in the manifest's unit.
+  double error = 0;
+};
+
+/// One encoded stream: a byte range of a chunk (the component at full resolution), and its
+/// coarser levels.
 struct ManifestComponent {
   std::string id;
   uint64_t chunk = 0;  ///< index into Manifest::chunks
@@ -48,6 +61,9 @@ struct ManifestComponent {
   uint64_t vertices = 0;
   Aabb bounds;             ///< in the prototype's frame
   double error_bound = 0;  ///< the largest distance of a decoded vertex from the input, in unit
+  /// Coarser levels, coarsest first, each with fewer triangles than the next (the last one's
+  /// next is the full level above); empty for a component without levels.
+  std::vector<ManifestLevel> levels;
 };
 
 /// A component drawn for a part under a matrix.
@@ -82,8 +98,9 @@ std::string write_manifest(const Manifest& manifest);
 
 /// Parses and checks manifest.json text: every field the format requires, each in range (chunk
 /// file names c/<24 hex>.ostc only, chunk and part indices, byte ranges inside their chunk, ids
-/// unique and known, 16 finite numbers in a non-singular matrix, boxes with min <= max, every
-/// component once in stream_order). Errors: kInvalidData naming `source` and the JSON path
+/// unique and known, 16 finite numbers in a non-singular matrix, boxes with min <= max, levels
+/// with increasing triangles and errors not below the component's bound, every component once in
+/// stream_order). Reads versions 2 and 3. Errors: kInvalidData naming `source` and the JSON path
 /// ("instances[3].matrix: ..."); kUnsupported for another version. Allocates O(size).
 Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::string& source);
 
@@ -96,6 +113,8 @@ bool is_package(const std::string& dir);
 /// Errors: parse_manifest's (naming manifest.json and the JSON path); kInvalidData for a chunk
 /// of another size than the manifest's; read_file's for a missing chunk (only c/<hex>.ostc names
 /// inside the package are ever opened); the decoder's errors (naming chunk and offset).
-Result<Scene> read_package(const std::string& dir);
+/// `level` >= 0 draws every component at that level counted from its coarsest (0), or at its full
+/// level when it has fewer; -1 (the default) at full resolution.
+Result<Scene> read_package(const std::string& dir, int level = -1);
 
 }  // namespace osteon

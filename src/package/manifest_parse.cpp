@@ -11,7 +11,7 @@
 
 #include "osteon/package.hpp"
 
-// The one C++ parser of manifest.json (docs/FORMAT.md "Package, version 2"). It checks what the
+// The one C++ parser of manifest.json (docs/FORMAT.md "Package, version 3"; version 2 too). It checks what the
 // viewer's parser (web/viewer/manifest.mjs) checks, in the same order and naming the same JSON
 // path, so a manifest is refused alike by both; tests/data/manifests holds the golden cases both
 // are tested on. The manifest comes from a folder or a server: nothing in it is trusted.
@@ -200,6 +200,71 @@ bool parse_parts(const json& in, Checker& check, Manifest* out) {
   return true;
 }
 
+/// The stream `v` names (chunk, offset, bytes), checked against the chunks.
+bool parse_range(const json& v, const std::string& where, Checker& check, const Manifest& m,
+                 uint64_t* chunk, uint64_t* offset, uint64_t* bytes) {
+  if (!check.count(Checker::member(v, "chunk"), where + ".chunk", chunk)) return false;
+  if (*chunk >= m.chunks.size()) {
+    return check.fail(where + ".chunk", "no chunk " + std::to_string(*chunk) +
+                                            " (the package has " +
+                                            std::to_string(m.chunks.size()) + ")");
+  }
+  if (!check.count(Checker::member(v, "offset"), where + ".offset", offset) ||
+      !check.count(Checker::member(v, "bytes"), where + ".bytes", bytes)) {
+    return false;
+  }
+  const uint64_t chunk_bytes = m.chunks[*chunk].bytes;
+  const std::string of_chunk =
+      " the " + std::to_string(chunk_bytes) + " bytes of " + at("chunks", *chunk);
+  if (*offset > chunk_bytes) {
+    return check.fail(where + ".offset",
+                      "byte " + std::to_string(*offset) + " lies beyond" + of_chunk);
+  }
+  if (*bytes == 0) return check.fail(where + ".bytes", "expected at least one byte");
+  if (*bytes > chunk_bytes - *offset) {
+    return check.fail(where + ".bytes", "bytes " + std::to_string(*offset) + "-" +
+                                            std::to_string(*offset + *bytes) + " lie beyond" +
+                                            of_chunk);
+  }
+  return true;
+}
+
+/// A component's coarser levels (docs/FORMAT.md "Levels of detail"), when it has any.
+bool parse_levels(const json& c, const std::string& where, Checker& check, const Manifest& m,
+                  ManifestComponent* component) {
+  if (!c.contains("levels")) return true;
+  const json& in = c["levels"];
+  if (!in.is_array()) return check.fail(where + ".levels", "expected an array");
+  for (size_t k = 0; k < in.size(); ++k) {
+    const std::string at_level = where + ".levels[" + std::to_string(k) + "]";
+    if (!check.object(in[k], at_level)) return false;
+    ManifestLevel level;
+    if (!parse_range(in[k], at_level, check, m, &level.chunk, &level.offset, &level.bytes) ||
+        !check.count(Checker::member(in[k], "triangles"), at_level + ".triangles",
+                     &level.triangles) ||
+        !check.count(Checker::member(in[k], "vertices"), at_level + ".vertices",
+                     &level.vertices) ||
+        !check.number(Checker::member(in[k], "error"), at_level + ".error", &level.error)) {
+      return false;
+    }
+    if (level.error < component->error_bound) {
+      return check.fail(at_level + ".error", json(level.error).dump() +
+                                                 " is below the component's error_bound " +
+                                                 json(component->error_bound).dump());
+    }
+    component->levels.push_back(level);
+  }
+  for (size_t k = 0; k < component->levels.size(); ++k) {
+    const uint64_t finer = k + 1 < component->levels.size() ? component->levels[k + 1].triangles
+                                                            : component->triangles;
+    if (component->levels[k].triangles >= finer) {
+      return check.fail(where + ".levels[" + std::to_string(k) + "].triangles",
+                        "expected fewer than the next finer level's " + std::to_string(finer));
+    }
+  }
+  return true;
+}
+
 bool parse_components(const json& in, Checker& check, Manifest* out,
                       std::unordered_map<std::string, size_t>* index_of) {
   for (size_t i = 0; i < in.size(); ++i) {
@@ -211,36 +276,16 @@ bool parse_components(const json& in, Checker& check, Manifest* out,
     if (index_of->count(component.id) != 0) {
       return check.fail(where + ".id", json(component.id).dump() + " appears twice");
     }
-    if (!check.count(Checker::member(c, "chunk"), where + ".chunk", &component.chunk)) {
+    if (!parse_range(c, where, check, *out, &component.chunk, &component.offset,
+                     &component.bytes)) {
       return false;
-    }
-    if (component.chunk >= out->chunks.size()) {
-      return check.fail(where + ".chunk", "no chunk " + std::to_string(component.chunk) +
-                                              " (the package has " +
-                                              std::to_string(out->chunks.size()) + ")");
-    }
-    if (!check.count(Checker::member(c, "offset"), where + ".offset", &component.offset) ||
-        !check.count(Checker::member(c, "bytes"), where + ".bytes", &component.bytes)) {
-      return false;
-    }
-    const uint64_t chunk_bytes = out->chunks[component.chunk].bytes;
-    const std::string of_chunk =
-        " the " + std::to_string(chunk_bytes) + " bytes of " + at("chunks", component.chunk);
-    if (component.offset > chunk_bytes) {
-      return check.fail(where + ".offset",
-                        "byte " + std::to_string(component.offset) + " lies beyond" + of_chunk);
-    }
-    if (component.bytes == 0) return check.fail(where + ".bytes", "expected at least one byte");
-    if (component.bytes > chunk_bytes - component.offset) {
-      return check.fail(where + ".bytes", "bytes " + std::to_string(component.offset) + "-" +
-                                              std::to_string(component.offset + component.bytes) +
-                                              " lie beyond" + of_chunk);
     }
     if (!check.count(Checker::member(c, "triangles"), where + ".triangles", &component.triangles) ||
         !check.count(Checker::member(c, "vertices"), where + ".vertices", &component.vertices) ||
         !check.box(Checker::member(c, "bounds"), where + ".bounds", &component.bounds) ||
         !check.number(Checker::member(c, "error_bound"), where + ".error_bound",
-                      &component.error_bound)) {
+                      &component.error_bound) ||
+        !parse_levels(c, where, check, *out, &component)) {
       return false;
     }
     index_of->emplace(component.id, out->components.size());
@@ -331,9 +376,10 @@ Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::str
     return check.status();
   }
   const json& version = Checker::member(in, "version");
-  if (!version.is_number_integer() || version.get<int64_t>() != kManifestVersion) {
+  if (!version.is_number_integer() ||
+      (version.get<int64_t>() != kManifestVersion && version.get<int64_t>() != 2)) {
     check.fail("version",
-               "osteon reads version " + std::to_string(kManifestVersion) +
+               "osteon reads versions 2 and " + std::to_string(kManifestVersion) +
                    ", the package is version " + version.dump(),
                ErrorCode::kUnsupported);
     return check.status();

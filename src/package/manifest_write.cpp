@@ -8,7 +8,7 @@
 
 #include "osteon/package.hpp"
 
-// The one writer of manifest.json (docs/FORMAT.md "Package, version 2"). nlohmann::json keeps
+// The one writer of manifest.json (docs/FORMAT.md "Package, version 3"). nlohmann::json keeps
 // object keys sorted, so the same Manifest always gives the same bytes.
 
 namespace osteon {
@@ -68,14 +68,27 @@ std::string write_manifest(const Manifest& manifest) {
   }
   json components = json::array();
   for (const ManifestComponent& c : manifest.components) {
-    components.push_back({{"id", c.id},
-                          {"chunk", c.chunk},
-                          {"offset", c.offset},
-                          {"bytes", c.bytes},
-                          {"triangles", c.triangles},
-                          {"vertices", c.vertices},
-                          {"bounds", box_json(c.bounds)},
-                          {"error_bound", bound_up(c.error_bound)}});
+    json entry = {{"id", c.id},
+                  {"chunk", c.chunk},
+                  {"offset", c.offset},
+                  {"bytes", c.bytes},
+                  {"triangles", c.triangles},
+                  {"vertices", c.vertices},
+                  {"bounds", box_json(c.bounds)},
+                  {"error_bound", bound_up(c.error_bound)}};
+    if (!c.levels.empty()) {
+      json levels = json::array();
+      for (const ManifestLevel& level : c.levels) {
+        levels.push_back({{"chunk", level.chunk},
+                          {"offset", level.offset},
+                          {"bytes", level.bytes},
+                          {"triangles", level.triangles},
+                          {"vertices", level.vertices},
+                          {"error", bound_up(level.error)}});
+      }
+      entry["levels"] = std::move(levels);
+    }
+    components.push_back(std::move(entry));
   }
   json instances = json::array();
   for (const ManifestInstance& instance : manifest.instances) {

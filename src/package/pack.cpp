@@ -181,6 +181,9 @@ Status check_options(const std::vector<std::string>& inputs, const PackOptions& 
   if (!(options.precision_mm > 0) || !std::isfinite(options.precision_mm)) {
     return error(ErrorCode::kInvalidArgument, "pack", "the default precision must be > 0 mm");
   }
+  if (options.levels < 0) {
+    return error(ErrorCode::kInvalidArgument, "pack", "levels must be >= 0 (0: no limit)");
+  }
   if (options.chunk_bytes == 0) {
     return error(ErrorCode::kInvalidArgument, "pack", "chunk bytes must be at least 1");
   }
@@ -336,11 +339,71 @@ Result<std::vector<std::vector<Mesh>>> segment_stage(const std::vector<Mesh>& pa
   return pieces_of;
 }
 
-/// An encoded piece, before it has a place in a chunk.
-struct Encoded {
-  ManifestComponent entry;  ///< chunk and offset are set by chunk_streams
-  std::string hash;         ///< SHA-256 of the stream (hex): equal streams are stored once
+/// Levels: the coarser levels of every piece larger than options.lod_min_triangles (in parallel
+/// over pieces, each result in its own slot). Returns them per part, per piece, coarsest first.
+Result<std::vector<std::vector<std::vector<detail::DetailLevel>>>> levels_stage(
+    const std::vector<size_t>& prototypes, const std::vector<std::vector<Mesh>>& pieces_of,
+    const PackOptions& options, const Progress& progress, tbb::task_arena& arena) {
+  std::vector<std::vector<std::vector<detail::DetailLevel>>> levels_of(pieces_of.size());
+  std::vector<std::pair<size_t, size_t>> jobs;  // (part, piece)
+  for (size_t p : prototypes) {
+    levels_of[p].resize(pieces_of[p].size());
+    for (size_t k = 0; k < pieces_of[p].size(); ++k) {
+      if (options.levels != 1 && options.lod_min_triangles > 0 &&
+          pieces_of[p][k].triangle_count() > options.lod_min_triangles) {
+        jobs.emplace_back(p, k);
+      }
+    }
+  }
+  // Largest first, so the long ones start early.
+  std::stable_sort(jobs.begin(), jobs.end(), [&](const auto& a, const auto& b) {
+    return pieces_of[a.first][a.second].triangle_count() >
+           pieces_of[b.first][b.second].triangle_count();
+  });
+  std::vector<Status> status(jobs.size());
+  progress(PackStage::kLevels, 0, jobs.size());
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
+      const auto [p, k] = jobs[j];
+      Result<std::vector<detail::DetailLevel>> levels =
+          detail::detail_levels(pieces_of[p][k], options.levels);
+      if (!levels.ok()) {
+        status[j] = levels.status();
+        return;
+      }
+      levels_of[p][k] = std::move(levels.value());
+    });
+  });
+  for (const Status& s : status) OSTEON_RETURN_IF_ERROR(s);
+  progress(PackStage::kLevels, jobs.size(), jobs.size());
+  return levels_of;
+}
+
+/// The grid step of a coarser level that is `distance` from the full level, on a part grid of
+/// `step`: the part's step times the largest power of two that keeps the added quantization
+/// error (sqrt(3) / 2 steps) within the distance, so the level's error is at most twice its
+/// distance. A level 0.4 mm off need not be stored to 0.05 mm: each doubling saves 3 bits a
+/// vertex (BodyParts3D: the levels' bytes 201 -> 158 KB). Only for a part that is one component: the
+/// coarser grid moves border vertices, and the pieces of a segmented part must meet exactly
+/// (docs/FORMAT.md "Levels of detail").
+double level_step(double step, double distance) {
+  double coarse = step;
+  for (int doublings = 0; doublings < 16 && std::sqrt(3.0) * coarse <= distance; ++doublings) {
+    coarse *= 2;
+  }
+  return coarse;
+}
+
+/// An encoded stream, before it has a place in a chunk.
+struct Stream {
+  std::string hash;  ///< SHA-256 of the stream (hex): equal streams are stored once
   std::vector<uint8_t> bytes;
+};
+
+/// An encoded piece: its streams, coarsest level first, the full level last.
+struct Encoded {
+  ManifestComponent entry;  ///< chunks and offsets are set by chunk_streams
+  std::vector<Stream> streams;
 };
 
 struct EncodedParts {
@@ -348,13 +411,13 @@ struct EncodedParts {
   std::vector<std::vector<size_t>> components_of;  ///< per prototype part
 };
 
-/// Encode every piece on its part's own grid (so the components of one part meet without
-/// cracks), in parallel over pieces.
-Result<EncodedParts> encode_stage(const std::vector<Mesh>& parts,
-                                  const std::vector<size_t>& prototypes,
-                                  const std::vector<std::vector<Mesh>>& pieces_of,
-                                  const PackOptions& options, const Progress& progress,
-                                  tbb::task_arena& arena) {
+/// Encode every piece and each of its levels on its part's own grid (so the components of one
+/// part, at any levels, meet without cracks), in parallel over pieces.
+Result<EncodedParts> encode_stage(
+    const std::vector<Mesh>& parts, const std::vector<size_t>& prototypes,
+    const std::vector<std::vector<Mesh>>& pieces_of,
+    const std::vector<std::vector<std::vector<detail::DetailLevel>>>& levels_of,
+    const PackOptions& options, const Progress& progress, tbb::task_arena& arena) {
   EncodedParts out;
   out.components_of.resize(parts.size());
   std::vector<std::pair<size_t, size_t>> jobs;  // (part, piece)
@@ -378,29 +441,46 @@ Result<EncodedParts> encode_stage(const std::vector<Mesh>& parts,
   progress(PackStage::kEncode, 0, jobs.size());
   arena.execute([&] {
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
-      const Mesh& piece = pieces_of[jobs[j].first][jobs[j].second];
+      const auto [p, k] = jobs[j];
+      const std::vector<detail::DetailLevel>& levels = levels_of[p][k];
       EncodeOptions encode_options;
-      encode_options.grid = grid_of[jobs[j].first];
-      EncodeReport encoded;
-      Result<std::vector<uint8_t>> bytes = encode(piece, encode_options, &encoded);
-      if (!bytes.ok()) {
-        status[j] = bytes.status();
-        return;
-      }
+      encode_options.grid = grid_of[p];
       Encoded& c = out.components[j];
+      for (size_t level = 0; level <= levels.size(); ++level) {
+        const Mesh& mesh = level < levels.size() ? levels[level].mesh : pieces_of[p][k];
+        encode_options.grid = grid_of[p];
+        if (level < levels.size() && pieces_of[p].size() == 1) {
+          encode_options.grid.step = level_step(grid_of[p].step, levels[level].distance);
+        }
+        EncodeReport encoded;
+        Result<std::vector<uint8_t>> bytes = encode(mesh, encode_options, &encoded);
+        if (!bytes.ok()) {
+          status[j] = bytes.status();
+          return;
+        }
+        // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
+        const double bound = std::sqrt(3.0) / 2 * encoded.grid_step;
+        if (level < levels.size()) {
+          ManifestLevel entry;
+          entry.bytes = bytes.value().size();
+          entry.triangles = encoded.triangles;
+          entry.vertices = encoded.vertices;
+          entry.error = levels[level].distance + bound;
+          c.entry.levels.push_back(entry);
+        } else {
+          c.entry.bytes = bytes.value().size();
+          c.entry.triangles = encoded.triangles;
+          c.entry.vertices = encoded.vertices;
+          c.entry.bounds = bounding_box(mesh);
+          c.entry.error_bound = bound;
+        }
+        c.streams.push_back({sha256_hex(bytes.value()), std::move(bytes.value())});
+      }
       // Formatted, not concatenated: g++ 12 warns (-Wrestrict, a false positive) on string
       // appends here.
       char id[32];
       std::snprintf(id, sizeof(id), "c%zu", j);
       c.entry.id = id;
-      c.hash = sha256_hex(bytes.value());
-      c.bytes = std::move(bytes.value());
-      c.entry.bytes = c.bytes.size();
-      c.entry.triangles = encoded.triangles;
-      c.entry.vertices = encoded.vertices;
-      c.entry.bounds = bounding_box(piece);
-      // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
-      c.entry.error_bound = std::sqrt(3.0) / 2 * encoded.grid_step;
     });
   });
   for (const Status& s : status) OSTEON_RETURN_IF_ERROR(s);
@@ -431,33 +511,58 @@ std::vector<ManifestInstance> place_instances(const std::vector<Mesh>& parts, co
   return instances;
 }
 
-/// The chunk files: the streams concatenated in stream order, each chunk at most chunk_bytes (a
-/// larger stream gets one of its own), so the viewer makes a few requests, not one per component,
-/// and reads each as a stream, decoding every component the moment its last byte arrives. Equal
-/// streams are stored once. Sets each component's chunk and offset.
+/// Where stream `level` of component `c` lies (its full level is the last stream).
+void place_stream(Encoded& c, size_t level, uint64_t chunk, uint64_t offset) {
+  if (level + 1 == c.streams.size()) {
+    c.entry.chunk = chunk;
+    c.entry.offset = offset;
+  } else {
+    c.entry.levels[level].chunk = chunk;
+    c.entry.levels[level].offset = offset;
+  }
+}
+
+/// The chunk files (docs/FORMAT.md "Levels of detail"): every component's first stream (its
+/// coarsest level) in stream order, then, from a new chunk on, every second-coarsest level in
+/// stream order, then every third, and so on, each chunk at most chunk_bytes (a larger stream
+/// gets one of its own). So the viewer reads the first chunks whole, as streams, decoding each
+/// component the moment its last byte arrives, and has the whole skeleton; the finer levels it
+/// fetches by byte range as the view asks. Equal streams are stored once. Sets every stream's
+/// chunk and offset.
 std::vector<std::vector<uint8_t>> chunk_streams(const std::vector<size_t>& stream,
                                                 uint64_t chunk_bytes,
                                                 std::vector<Encoded>* components,
                                                 std::vector<ManifestChunk>* chunks) {
   std::vector<std::vector<uint8_t>> bytes;
-  std::map<std::string, size_t> stored;  // stream hash -> component that holds its bytes
-  for (size_t c : stream) {
-    ManifestComponent& entry = (*components)[c].entry;
-    const std::vector<uint8_t>& stream_bytes = (*components)[c].bytes;
-    auto first = stored.find((*components)[c].hash);
+  // stream hash -> (chunk, offset) of the bytes already stored
+  std::map<std::string, std::pair<uint64_t, uint64_t>> stored;
+  bool new_chunk = true;
+  auto add = [&](Encoded& c, size_t level) {
+    const Stream& s = c.streams[level];
+    auto first = stored.find(s.hash);
     if (first != stored.end()) {
-      entry.chunk = (*components)[first->second].entry.chunk;
-      entry.offset = (*components)[first->second].entry.offset;
-      continue;
+      place_stream(c, level, first->second.first, first->second.second);
+      return;
     }
-    stored.emplace((*components)[c].hash, c);
-    if (bytes.empty() ||
-        (!bytes.back().empty() && bytes.back().size() + stream_bytes.size() > chunk_bytes)) {
+    if (new_chunk || (!bytes.back().empty() && bytes.back().size() + s.bytes.size() > chunk_bytes)) {
       bytes.emplace_back();
+      new_chunk = false;
     }
-    entry.chunk = bytes.size() - 1;
-    entry.offset = bytes.back().size();
-    bytes.back().insert(bytes.back().end(), stream_bytes.begin(), stream_bytes.end());
+    const std::pair<uint64_t, uint64_t> at{bytes.size() - 1, bytes.back().size()};
+    stored.emplace(s.hash, at);
+    place_stream(c, level, at.first, at.second);
+    bytes.back().insert(bytes.back().end(), s.bytes.begin(), s.bytes.end());
+  };
+  size_t depth = 0;
+  for (size_t c : stream) {
+    add((*components)[c], 0);
+    depth = std::max(depth, (*components)[c].streams.size());
+  }
+  for (size_t level = 1; level < depth; ++level) {
+    if (level == 1) new_chunk = true;  // the first chunks hold first streams only
+    for (size_t c : stream) {
+      if (level < (*components)[c].streams.size()) add((*components)[c], level);
+    }
   }
   for (const std::vector<uint8_t>& chunk : bytes) {
     ManifestChunk file;
@@ -575,6 +680,8 @@ const char* stage_name(PackStage stage) {
       return "repeats";
     case PackStage::kSegment:
       return "segment";
+    case PackStage::kLevels:
+      return "levels";
     case PackStage::kEncode:
       return "encode";
     case PackStage::kWrite:
@@ -591,6 +698,7 @@ const char* stage_unit(PackStage stage) {
     case PackStage::kRepeats:
     case PackStage::kSegment:
       return "parts";
+    case PackStage::kLevels:
     case PackStage::kEncode:
       return "components";
     case PackStage::kWrite:
@@ -625,9 +733,17 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
                           segment_stage(in.parts, repeats.prototypes, options, progress, arena));
   ms.segment_ms = ms_since(stage);
   stage = Clock::now();
+  OSTEON_ASSIGN_OR_RETURN(auto levels,
+                          levels_stage(repeats.prototypes, pieces, options, progress, arena));
+  ms.levels_ms = ms_since(stage);
+  stage = Clock::now();
   OSTEON_ASSIGN_OR_RETURN(EncodedParts encoded, encode_stage(in.parts, repeats.prototypes, pieces,
-                                                             options, progress, arena));
-  for (const Encoded& c : encoded.components) report.triangles_out += c.entry.triangles;
+                                                             levels, options, progress, arena));
+  for (const Encoded& c : encoded.components) {
+    report.triangles_out += c.entry.triangles;
+    report.level_streams += c.entry.levels.size();
+    for (const ManifestLevel& level : c.entry.levels) report.level_triangles += level.triangles;
+  }
   ms.encode_ms = ms_since(stage);
 
   std::vector<std::vector<uint8_t>> chunk_data;
@@ -638,6 +754,13 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
       write_stage(options, in.viewer_files, chunk_data, manifest, progress, &report));
   ms.write_ms = ms_since(stage);
 
+  // The first chunks hold every component's first stream (FORMAT: "Levels of detail").
+  std::set<uint64_t> first_chunks;
+  for (const ManifestComponent& c : manifest.components) {
+    first_chunks.insert(c.levels.empty() ? c.chunk : c.levels.front().chunk);
+    for (const ManifestLevel& level : c.levels) report.level_bytes += level.bytes;
+  }
+  for (uint64_t k : first_chunks) report.first_bytes += manifest.chunks[k].bytes;
   report.components = manifest.components.size();
   report.files = manifest.chunks.size();
   report.instances = manifest.instances.size();

@@ -3,6 +3,9 @@
 
 #include <map>
 #include <string>
+#include <vector>
+
+#include "osteon/mesh.hpp"
 
 #include "osteon/status.hpp"
 #include "osteon/vec.hpp"
@@ -30,5 +33,21 @@ struct DisplayName {
 /// optional colour (JSON "color", CSV 4th column) is "#rrggbb" or three numbers 0..1. Errors:
 /// read_file's; kInvalidData for JSON that does not parse or a CSV line of fewer than 2 fields.
 Result<std::map<std::string, DisplayName>> read_names(const std::string& path);
+
+/// A coarser level of detail of a component: its triangles and its measured distance from the
+/// full level (symmetric sampled Hausdorff, in the mesh's unit, before quantization).
+struct DetailLevel {
+  Mesh mesh;
+  double distance = 0;
+};
+
+/// The chain of coarser levels of `full` (docs/FORMAT.md "Levels of detail"), coarsest first:
+/// each simplified from the next finer one to a quarter of its triangles with the border locked
+/// (so every level keeps `full`'s border vertices, exactly), while that leaves at least
+/// kMinLevelTriangles and the simplifier gets below 3/4 of the finer level; at most
+/// `max_levels` - 1 of them (0: no limit). Each level's distance from `full` is measured.
+/// Errors: those of hausdorff() (a non-finite coordinate). Deterministic.
+inline constexpr uint64_t kMinLevelTriangles = 256;
+Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels);
 
 }  // namespace osteon::detail

@@ -32,7 +32,7 @@ bool is_package(const std::string& dir) {
   return fs::is_directory(dir, ec) && fs::is_regular_file(fs::path(dir) / "manifest.json", ec);
 }
 
-Result<Scene> read_package(const std::string& dir) {
+Result<Scene> read_package(const std::string& dir, int level) {
   const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
   OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> text, read_file(manifest_path, kMaxManifestBytes));
   OSTEON_ASSIGN_OR_RETURN(Manifest manifest,
@@ -51,14 +51,21 @@ Result<Scene> read_package(const std::string& dir) {
     }
   }
 
-  // Components, each decoded from its byte range of its chunk (parse_manifest checked the ranges).
+  // Components, each decoded from its byte range of its chunk (parse_manifest checked the
+  // ranges), at the level asked for.
   std::vector<Mesh> decoded;
   decoded.reserve(manifest.components.size());
   for (const ManifestComponent& c : manifest.components) {
-    const std::string source = (fs::path(dir) / manifest.chunks[c.chunk].file).string() +
-                               " at byte " + std::to_string(c.offset);
-    OSTEON_ASSIGN_OR_RETURN(Mesh mesh,
-                            decode(chunk_bytes[c.chunk].data() + c.offset, c.bytes, source));
+    uint64_t chunk = c.chunk, offset = c.offset, bytes = c.bytes;
+    if (level >= 0 && static_cast<size_t>(level) < c.levels.size()) {
+      const ManifestLevel& l = c.levels[static_cast<size_t>(level)];
+      chunk = l.chunk;
+      offset = l.offset;
+      bytes = l.bytes;
+    }
+    const std::string source = (fs::path(dir) / manifest.chunks[chunk].file).string() +
+                               " at byte " + std::to_string(offset);
+    OSTEON_ASSIGN_OR_RETURN(Mesh mesh, decode(chunk_bytes[chunk].data() + offset, bytes, source));
     decoded.push_back(std::move(mesh));
   }
   std::unordered_map<std::string, size_t> index_of;

@@ -343,6 +343,9 @@ void register_compare(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::Range(1e-6, 1e6))
       ->excludes(samples);
   cmd->add_option("--seed", args->seed, "Seed of the sample positions (default 1)");
+  cmd->add_option("--level", args->read.package_level,
+                  "read packages at this level of detail, 0 the coarsest (default: full)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", args->threads, "Worker threads (default: every core)")
       ->check(CLI::Range(0, 4096));
   cmd->add_flag("--json", args->json, "Print a JSON report");

@@ -16,9 +16,9 @@
 #endif
 
 // osteon pack INPUT... -o DIR [--bits N | --precision E] [--repeat-tolerance X] [--no-repeats]
-//             [--max-triangles N] [--names FILE] [--viewer DIR | --no-viewer] [--threads T]
-//             [--json]
-// Runs the whole pipeline (read, clean, repeats, segment, encode) and writes the package that
+//             [--max-triangles N] [--lod-min-triangles N] [--levels N | --no-lod]
+//             [--names FILE] [--viewer DIR | --no-viewer] [--threads T] [--json]
+// Runs the whole pipeline (read, clean, repeats, segment, levels, encode) and writes the package that
 // docs/FORMAT.md ("Package (osteon pack)") specifies, with the viewer's files, a complete static
 // site. A progress bar per stage on a terminal.
 
@@ -31,6 +31,7 @@ struct PackArgs {
   PackOptions options;
   bool no_viewer = false;
   bool no_repeats = false;
+  bool no_lod = false;
   bool json = false;
 };
 
@@ -47,6 +48,7 @@ int run_pack(const PackArgs& args) {
   PackOptions options = args.options;
   options.viewer = viewer_folder(args);
   options.repeats = !args.no_repeats;
+  if (args.no_lod) options.levels = 1;
   // One bar per stage; a stage's bar ends its line when the next stage starts.
   std::unique_ptr<ProgressBar> bar;
   PackStage current = PackStage::kRead;
@@ -77,11 +79,16 @@ int run_pack(const PackArgs& args) {
                         {"instances", r.instances},
                         {"triangles_in", r.triangles_in},
                         {"triangles_out", r.triangles_out},
+                        {"level_streams", r.level_streams},
+                        {"level_triangles", r.level_triangles},
+                        {"level_bytes", r.level_bytes},
+                        {"first_bytes", r.first_bytes},
                         {"time_ms",
                          {{"read", r.timings.read_ms},
                           {"clean", r.timings.clean_ms},
                           {"repeats", r.timings.repeats_ms},
                           {"segment", r.timings.segment_ms},
+                          {"levels", r.timings.levels_ms},
                           {"encode", r.timings.encode_ms},
                           {"write", r.timings.write_ms},
                           {"total", r.timings.total_ms}}}};
@@ -89,10 +96,12 @@ int run_pack(const PackArgs& args) {
   } else {
     std::printf(
         "%s: %zu parts (%zu stored, %zu instanced) -> %zu components in %zu chunk files, "
-        "%zu instances; %llu -> %llu bytes, %.1f ms\n",
+        "%zu instances, %zu coarser levels; %llu -> %llu bytes (whole skeleton at its coarsest in "
+        "the first %llu), %.1f ms\n",
         args.options.output.c_str(), r.parts, r.prototypes, r.parts - r.prototypes, r.components,
-        r.files, r.instances, static_cast<unsigned long long>(r.input_bytes),
-        static_cast<unsigned long long>(r.output_bytes), r.timings.total_ms);
+        r.files, r.instances, r.level_streams, static_cast<unsigned long long>(r.input_bytes),
+        static_cast<unsigned long long>(r.output_bytes),
+        static_cast<unsigned long long>(r.first_bytes), r.timings.total_ms);
   }
   return kExitOk;
 }
@@ -118,6 +127,16 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--max-triangles", args->options.max_triangles,
                   "largest component in triangles (default 20000; 0: never segment)");
+  cmd->add_option("--lod-min-triangles", args->options.lod_min_triangles,
+                  "components with more triangles get coarser levels of detail (default 1024; 0: "
+                  "none)");
+  CLI::Option* levels =
+      cmd->add_option("--levels", args->options.levels,
+                      "at most N levels of detail per component, full one included (default: as "
+                      "many as a chain of quarters gives)")
+          ->check(CLI::Range(1, 32));
+  cmd->add_flag("--no-lod", args->no_lod, "no levels of detail: full resolution only")
+      ->excludes(levels);
   cmd->add_option("--chunk-bytes", args->options.chunk_bytes,
                   "largest chunk file: streams are concatenated in stream order (default 524288)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// Reads a package's manifest.json (docs/FORMAT.md, "Package (osteon pack), version 2") into the
+// Reads a package's manifest.json (docs/FORMAT.md, "Package (osteon pack), version 3"; version 2,
+// without levels of detail, too) into the
 // plain tables the viewer draws from: parts, chunk files, components by id (each a byte range of a
 // chunk), instances with their world matrices, the fetch order, and each part's world bounding box
 // (known before any mesh arrives, so the camera can be fitted and a bone framed or clicked before
@@ -106,6 +107,46 @@ function unionBox(a, b) {
   return { min: a.min.map((v, i) => Math.min(v, b.min[i])), max: a.max.map((v, i) => Math.max(v, b.max[i])) };
 }
 
+/// The stream `v` names ({chunk, offset, bytes}), checked against the chunks.
+function byteRange(v, where, chunks) {
+  const k = count(v.chunk, `${where}.chunk`);
+  if (k >= chunks.length) fail(`${where}.chunk`, `no chunk ${k} (the package has ${chunks.length})`);
+  const offset = count(v.offset, `${where}.offset`);
+  const bytes = count(v.bytes, `${where}.bytes`);
+  if (offset > chunks[k].bytes) fail(`${where}.offset`, `byte ${offset} lies beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);
+  if (bytes === 0) fail(`${where}.bytes`, 'expected at least one byte');
+  if (offset + bytes > chunks[k].bytes) {
+    fail(`${where}.bytes`, `bytes ${offset}-${offset + bytes} lie beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);
+  }
+  return { chunk: k, offset, bytes };
+}
+
+/// A component's coarser levels (docs/FORMAT.md "Levels of detail"), coarsest first: each
+/// { chunk, offset, bytes, file, triangles, vertices, error }, fewer triangles than the next.
+function levelsOf(c, where, chunks, component) {
+  if (c.levels === undefined) return [];
+  if (!Array.isArray(c.levels)) fail(`${where}.levels`, 'expected an array');
+  const levels = c.levels.map((v, k) => {
+    const at = `${where}.levels[${k}]`;
+    if (!isObject(v)) fail(at, 'expected an object');
+    const range = byteRange(v, at, chunks);
+    const level = {
+      ...range,
+      file: chunks[range.chunk].file,
+      triangles: count(v.triangles, `${at}.triangles`),
+      vertices: count(v.vertices, `${at}.vertices`),
+      error: number(v.error, `${at}.error`),
+    };
+    if (level.error < component.errorBound) fail(`${at}.error`, `${level.error} is below the component's error_bound ${component.errorBound}`);
+    return level;
+  });
+  levels.forEach((level, k) => {
+    const finer = k + 1 < levels.length ? levels[k + 1].triangles : component.triangles;
+    if (level.triangles >= finer) fail(`${where}.levels[${k}].triangles`, `expected fewer than the next finer level's ${finer}`);
+  });
+  return levels;
+}
+
 /// Checks a parsed manifest.json and returns:
 ///   { unit, bounds, parts, chunks ({ index, file, bytes }), components (each with chunk,
 ///     offset, bytes and file, its chunk's file), componentById: Map, instances, streamOrder
@@ -117,7 +158,7 @@ function unionBox(a, b) {
 export function parseManifest(json) {
   if (!isObject(json)) fail('top level', 'expected a JSON object');
   if (json.format !== 'osteon-package') fail('format', `expected "osteon-package", got ${JSON.stringify(json.format)}`);
-  if (json.version !== 2) fail('version', `this viewer reads version 2, the package is version ${JSON.stringify(json.version)}`);
+  if (json.version !== 2 && json.version !== 3) fail('version', `this viewer reads versions 2 and 3, the package is version ${JSON.stringify(json.version)}`);
   const unit = string(json.unit, 'unit');
   if (!kUnits.has(unit)) fail('unit', `expected one of ${[...kUnits].join(', ')}, got ${JSON.stringify(unit)}`);
   const bounds = box(json.bounds, 'bounds');
@@ -162,15 +203,7 @@ export function parseManifest(json) {
     if (!isObject(c)) fail(where, 'expected an object');
     const id = string(c.id, `${where}.id`);
     if (componentById.has(id)) fail(`${where}.id`, `${JSON.stringify(id)} appears twice`);
-    const k = count(c.chunk, `${where}.chunk`);
-    if (k >= chunks.length) fail(`${where}.chunk`, `no chunk ${k} (the package has ${chunks.length})`);
-    const offset = count(c.offset, `${where}.offset`);
-    const bytes = count(c.bytes, `${where}.bytes`);
-    if (offset > chunks[k].bytes) fail(`${where}.offset`, `byte ${offset} lies beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);
-    if (bytes === 0) fail(`${where}.bytes`, 'expected at least one byte');
-    if (offset + bytes > chunks[k].bytes) {
-      fail(`${where}.bytes`, `bytes ${offset}-${offset + bytes} lie beyond the ${chunks[k].bytes} bytes of chunks[${k}]`);
-    }
+    const { chunk: k, offset, bytes } = byteRange(c, where, chunks);
     const component = {
       id,
       index: i,
@@ -183,6 +216,13 @@ export function parseManifest(json) {
       bounds: box(c.bounds, `${where}.bounds`),
       errorBound: number(c.error_bound, `${where}.error_bound`),
     };
+    // Every level, coarsest first, the full one last; `first` is the stream fetched first.
+    component.levels = [...levelsOf(c, where, chunks, component), {
+      level: 0, chunk: k, offset, bytes, file: chunks[k].file,
+      triangles: component.triangles, vertices: component.vertices, error: component.errorBound,
+    }];
+    component.levels.forEach((level, n) => { level.level = n; });
+    component.first = component.levels[0];
     componentById.set(id, component);
     return component;
   });
@@ -230,7 +270,7 @@ export function parseManifest(json) {
   // A part without instances (none should exist) still gets a box, so framing it does not fail.
   for (let i = 0; i < parts.length; ++i) partBounds[i] ??= bounds;
   const groups = [...new Set(parts.map((p) => p.group))];
-  const used = new Set(components.map((c) => c.chunk));
+  const used = new Set(components.flatMap((c) => c.levels.map((level) => level.chunk)));
   return {
     unit,
     bounds,

@@ -76,12 +76,32 @@ bad = {
     "bad_stream_order_missing.json": ("stream_order", lambda m: m["stream_order"].pop()),
 }
 
+# Levels of detail: valid_levels.json with one level field broken (component 1, the skull, has
+# two levels in chunks 0 and 1).
+levels_base = load("valid_levels.json")
+assert len(levels_base["components"][1]["levels"]) == 2
+bad_levels = {
+    "bad_levels_not_array.json": ("components[1].levels", lambda m: m["components"][1].update(levels={})),
+    "bad_level_not_object.json": ("components[1].levels[0]", lambda m: m["components"][1]["levels"].__setitem__(0, 7)),
+    "bad_level_chunk_out_of_range.json": ("components[1].levels[1].chunk", lambda m: m["components"][1]["levels"][1].update(chunk=len(m["chunks"]))),
+    "bad_level_range_outside_chunk.json": ("components[1].levels[0].bytes", lambda m: m["components"][1]["levels"][0].update(bytes=m["chunks"][0]["bytes"])),
+    "bad_level_error_below_bound.json": ("components[0].levels[0].error", lambda m: m["components"][0]["levels"][0].update(error=0)),
+    # A coarser level with as many triangles as the next finer one.
+    "bad_level_triangles_not_fewer.json": ("components[1].levels[0].triangles", lambda m: m["components"][1]["levels"][0].update(triangles=m["components"][1]["levels"][1]["triangles"])),
+    "bad_level_triangles_of_full.json": ("components[0].levels[0].triangles", lambda m: m["components"][0]["levels"][0].update(triangles=m["components"][0]["triangles"] + 1)),
+}
+
 expected = {}
 for name in sorted(f for f in os.listdir(here) if f.startswith("valid_") and f.endswith(".json")):
     m = load(name)
     expected[name] = {key: len(m[key]) for key in ("parts", "components", "instances", "chunks")}
 for name, (path, edit) in bad.items():
     m = json.loads(json.dumps(base))
+    edit(m)
+    dump(name, m)
+    expected[name] = {"error": path}
+for name, (path, edit) in bad_levels.items():
+    m = json.loads(json.dumps(levels_base))
     edit(m)
     dump(name, m)
     expected[name] = {"error": path}

@@ -1,0 +1,234 @@
+// SPDX-License-Identifier: Apache-2.0
+// Levels of detail in a package (docs/FORMAT.md "Levels of detail"): the chain of quarters, the
+// stream layout (every coarsest level in the first chunks), errors that match what is measured,
+// exact borders between the pieces of a segmented part at every level, and a corrupt level that
+// fails alone.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "fixtures.hpp"
+#include "osteon/codec.hpp"
+#include "osteon/hausdorff.hpp"
+#include "osteon/io.hpp"
+#include "osteon/pack.hpp"
+#include "osteon/package.hpp"
+
+namespace osteon {
+namespace {
+
+using test::read_bytes;
+using test::scratch_dir;
+using test::write_phantom;
+
+Manifest read_manifest(const std::string& dir) {
+  const std::vector<uint8_t> text = read_bytes(dir + "/manifest.json");
+  Result<Manifest> manifest = parse_manifest(text.data(), text.size(), "manifest.json");
+  EXPECT_TRUE(manifest.ok()) << manifest.status().message();
+  return manifest.ok() ? manifest.value() : Manifest{};
+}
+
+/// Stream `level` of `c` (coarsest 0; c.levels.size() is the full one), decoded.
+Mesh decode_level(const std::string& dir, const Manifest& m, const ManifestComponent& c,
+                  size_t level) {
+  uint64_t chunk = c.chunk, offset = c.offset, bytes = c.bytes;
+  if (level < c.levels.size()) {
+    chunk = c.levels[level].chunk;
+    offset = c.levels[level].offset;
+    bytes = c.levels[level].bytes;
+  }
+  const std::vector<uint8_t> data = read_bytes(dir + "/" + m.chunks[chunk].file);
+  Result<Mesh> mesh = decode(data.data() + offset, bytes, m.chunks[chunk].file);
+  EXPECT_TRUE(mesh.ok()) << mesh.status().message();
+  return mesh.ok() ? mesh.value() : Mesh{};
+}
+
+Result<PackReport> pack_phantom(const std::string& out, PackOptions options, int detail = 3) {
+  options.output = out;
+  options.threads = 2;
+  return pack({write_phantom(detail)}, options);
+}
+
+TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
+  const std::string out = scratch_dir() + "/levels";
+  Result<PackReport> report = pack_phantom(out, PackOptions{});
+  ASSERT_TRUE(report.ok()) << report.status().message();
+  const Manifest m = read_manifest(out);
+  ASSERT_GT(report->level_streams, 0u);
+  size_t with_levels = 0;
+  uint64_t last_first_chunk = 0, first_finer_chunk = UINT64_MAX;
+  for (const ManifestComponent& c : m.components) {
+    EXPECT_EQ(!c.levels.empty(), c.triangles > 1024) << c.id << ": " << c.triangles;
+    if (c.levels.empty()) {
+      last_first_chunk = std::max(last_first_chunk, c.chunk);
+      continue;
+    }
+    ++with_levels;
+    EXPECT_GE(c.levels.front().triangles, 256u) << c.id;
+    EXPECT_LT(c.levels.front().triangles, 1024u) << c.id << ": the chain goes on to a few hundred";
+    for (size_t k = 0; k < c.levels.size(); ++k) {
+      const uint64_t finer = k + 1 < c.levels.size() ? c.levels[k + 1].triangles : c.triangles;
+      EXPECT_GE(4 * c.levels[k].triangles, finer * 3 / 4) << c.id << " level " << k;
+      EXPECT_LE(c.levels[k].triangles, finer * 3 / 4) << c.id << " level " << k;
+      EXPECT_GE(c.levels[k].error, c.error_bound);
+      if (k + 1 < c.levels.size()) {
+        EXPECT_GT(c.levels[k].error, c.levels[k + 1].error * 0.9);
+      }
+      const Mesh decoded = decode_level(out, m, c, k);
+      EXPECT_EQ(decoded.triangle_count(), c.levels[k].triangles);
+      EXPECT_EQ(decoded.positions.size(), c.levels[k].vertices);
+      if (k > 0) {
+        first_finer_chunk = std::min(first_finer_chunk, c.levels[k].chunk);
+      }
+    }
+    last_first_chunk = std::max(last_first_chunk, c.levels.front().chunk);
+    first_finer_chunk = std::min(first_finer_chunk, c.chunk);
+  }
+  EXPECT_GT(with_levels, 0u);
+  EXPECT_LT(last_first_chunk, first_finer_chunk)
+      << "the first chunks hold the coarsest levels and nothing else";
+  EXPECT_LT(report->first_bytes, report->output_bytes / 2);
+
+  // --no-lod: the same package without levels; --levels 2: one coarser level at most.
+  PackOptions no_lod;
+  no_lod.levels = 1;
+  const std::string flat_dir = scratch_dir() + "/flat", two_dir = scratch_dir() + "/two";
+  Result<PackReport> flat = pack_phantom(flat_dir, no_lod);
+  ASSERT_TRUE(flat.ok());
+  EXPECT_EQ(flat->level_streams, 0u);
+  for (const ManifestComponent& c : read_manifest(flat_dir).components) {
+    EXPECT_TRUE(c.levels.empty());
+  }
+  EXPECT_EQ(flat->triangles_out, report->triangles_out);
+  PackOptions two;
+  two.levels = 2;
+  ASSERT_TRUE(pack_phantom(two_dir, two).ok());
+  for (const ManifestComponent& c : read_manifest(two_dir).components) {
+    EXPECT_LE(c.levels.size(), 1u);
+  }
+}
+
+// What the manifest says of a level is what `osteon compare ORIGINAL PACKAGE --level K` measures.
+TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
+  const std::string input = write_phantom(3);
+  const std::string out = scratch_dir() + "/measured";
+  PackOptions options;
+  options.output = out;
+  ASSERT_TRUE(pack({input}, options).ok());
+  const Manifest m = read_manifest(out);
+  std::map<std::string, const ManifestComponent*> by_id;
+  size_t depth = 0;
+  for (const ManifestComponent& c : m.components) {
+    by_id[c.id] = &c;
+    depth = std::max(depth, c.levels.size());
+  }
+  Result<Scene> original = read_path(input);
+  ASSERT_TRUE(original.ok());
+  for (size_t level = 0; level < depth; ++level) {
+    Result<Scene> drawn = read_package(out, static_cast<int>(level));
+    ASSERT_TRUE(drawn.ok()) << drawn.status().message();
+    ASSERT_EQ(drawn->parts.size(), m.parts.size());
+    for (size_t p = 0; p < m.parts.size(); ++p) {
+      double recorded = 0;
+      bool coarser = false;
+      for (const ManifestInstance& instance : m.instances) {
+        if (instance.part != p) continue;
+        const ManifestComponent& c = *by_id.at(instance.component);
+        const double e = level < c.levels.size() ? c.levels[level].error : c.error_bound;
+        coarser = coarser || level < c.levels.size();
+        recorded = std::max(recorded, e + instance.error_bound - c.error_bound);
+      }
+      if (!coarser) continue;
+      const Mesh* source = nullptr;
+      for (const Mesh& part : original->parts) {
+        if (part.name == m.parts[p].name) source = &part;
+      }
+      ASSERT_NE(source, nullptr) << m.parts[p].name;
+      Result<HausdorffReport> measured = hausdorff(drawn->parts[p], *source);
+      ASSERT_TRUE(measured.ok());
+      const double d = measured->symmetric.max;
+      // Both are sampled lower bounds, at different densities and seeds: a few percent apart.
+      EXPECT_LE(d, 1.05 * recorded) << m.parts[p].name << " level " << level;
+      EXPECT_GE(d, 0.25 * recorded) << m.parts[p].name << " level " << level;
+    }
+  }
+}
+
+/// The positions of the vertices on `mesh`'s border edges (edges of one triangle), as floats.
+std::set<std::array<float, 3>> border_positions(const Mesh& mesh) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = mesh.indices[3 * t + k], b = mesh.indices[3 * t + (k + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  }
+  std::set<std::array<float, 3>> out;
+  for (const auto& [edge, count] : uses) {
+    if (count != 1) continue;
+    for (uint32_t v : {edge.first, edge.second}) {
+      out.insert({mesh.positions[v].x, mesh.positions[v].y, mesh.positions[v].z});
+    }
+  }
+  return out;
+}
+
+// The pieces of a segmented bone meet without cracks whatever level each is drawn at: every level
+// of a piece has the full level's border, vertex for vertex, after quantization.
+TEST(PackLevels, SegmentedPartsKeepTheirBordersAtEveryLevel) {
+  const std::string out = scratch_dir() + "/segmented";
+  PackOptions options;
+  options.max_triangles = 1500;  // the phantom's 4k-triangle bones in three or four pieces
+  ASSERT_TRUE(pack_phantom(out, options).ok());
+  const Manifest m = read_manifest(out);
+  size_t checked = 0;
+  for (const ManifestComponent& c : m.components) {
+    if (c.levels.empty()) continue;
+    const std::set<std::array<float, 3>> full = border_positions(decode_level(out, m, c, c.levels.size()));
+    if (full.empty()) continue;
+    for (size_t k = 0; k < c.levels.size(); ++k) {
+      EXPECT_EQ(border_positions(decode_level(out, m, c, k)), full) << c.id << " level " << k;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 4u);
+}
+
+// A level whose bytes are corrupt fails alone: reading it names its chunk and byte; the full
+// level, in another chunk, still reads.
+TEST(PackLevels, CorruptLevelFailsAlone) {
+  const std::string out = scratch_dir() + "/corrupt";
+  ASSERT_TRUE(pack_phantom(out, PackOptions{}).ok());
+  const Manifest m = read_manifest(out);
+  const ManifestComponent* target = nullptr;
+  for (const ManifestComponent& c : m.components) {
+    if (!c.levels.empty()) target = &c;
+  }
+  ASSERT_NE(target, nullptr);
+  const ManifestLevel& level = target->levels.front();
+  const std::string chunk = out + "/" + m.chunks[level.chunk].file;
+  std::vector<uint8_t> bytes = read_bytes(chunk);
+  for (uint64_t i = level.offset + 4; i < level.offset + level.bytes; i += 3) bytes[i] ^= 0x5a;
+  std::ofstream(chunk, std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  Result<Scene> coarse = read_package(out, 0);
+  ASSERT_FALSE(coarse.ok());
+  EXPECT_NE(coarse.status().message().find(m.chunks[level.chunk].file), std::string::npos)
+      << coarse.status().message();
+  EXPECT_NE(coarse.status().message().find("at byte " + std::to_string(level.offset)),
+            std::string::npos)
+      << coarse.status().message();
+  EXPECT_TRUE(read_package(out).ok()) << "the full levels live in other chunks";
+}
+
+}  // namespace
+}  // namespace osteon
