@@ -72,11 +72,26 @@ Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels)
     levels.push_back(std::move(level));
     finer = &levels.back().mesh;
   }
-  HausdorffOptions options;
-  options.samples_per_face = 3;
+  if (levels.empty()) return levels;
+  // Both ways: from the level's vertices, edges and faces (3 samples a triangle) to the full
+  // surface, whose hierarchy is built once for every level; and from every vertex of the full
+  // level to the level's surface, where a simplification's error peaks (the vertices it removed).
+  // Vertices alone on that side cost a sixth of Metro's 3-a-triangle samples, on the mesh that is
+  // four times larger than the next level: the measurement was three fifths of the levels' time.
+  OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_full, DistanceQuery::build(full));
+  HausdorffOptions level_samples;
+  level_samples.samples_per_face = 3;
+  HausdorffOptions full_vertices;
+  full_vertices.sample_edges = false;
+  full_vertices.sample_faces = false;
+  full_vertices.samples = full.positions.size();
   for (DetailLevel& level : levels) {
-    OSTEON_ASSIGN_OR_RETURN(HausdorffReport report, hausdorff(level.mesh, full, options));
-    level.distance = report.symmetric.max;
+    OSTEON_ASSIGN_OR_RETURN(OneSidedDistance forward,
+                            one_sided_distance(level.mesh, to_full, level_samples));
+    OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_level, DistanceQuery::build(level.mesh));
+    OSTEON_ASSIGN_OR_RETURN(OneSidedDistance backward,
+                            one_sided_distance(full, to_level, full_vertices));
+    level.distance = std::max(forward.max, backward.max);
   }
   std::reverse(levels.begin(), levels.end());
   return levels;

@@ -16,6 +16,10 @@ void add_volume_options(CLI::App* cmd, ReadOptions* options) {
   cmd->add_option("--smoothing", options->smoothing_iterations,
                   "label volumes: constrained smoothing passes (default 16; 0: the voxel net)")
       ->check(CLI::Range(0, 1000));
+  cmd->add_option("--surface-voxels", options->surface_precision_voxels,
+                  "label volumes: simplify each surface to this fraction of the smallest voxel "
+                  "side (pack's default 0.25; 0: keep every triangle)")
+      ->check(CLI::Range(0.0, 100.0));
 }
 
 }  // namespace osteon::cli
