@@ -14,6 +14,7 @@ import { execFileSync, spawn } from 'node:child_process';
 import { cpSync, existsSync, mkdirSync, readdirSync, readFileSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { gzipSync } from 'node:zlib';
 
 import { chromium } from 'playwright-core';
 
@@ -130,6 +131,18 @@ export async function waitLoaded(page, timeout = 60000) {
   });
 }
 
+/// Waits until levels of detail have settled for the current view (nothing in flight, nothing
+/// waiting for a frame, nothing more that fits the budget) and the frames are drawn; returns
+/// window.osteon's plain fields.
+export async function waitRefined(page, timeout = 30000) {
+  for (let i = 0; i < 20; ++i) {
+    await page.waitForFunction(() => window.osteon?.refineIdle === true && !window.osteon.framePending, null, { timeout });
+    await settle(page);
+    if (await page.evaluate(() => window.osteon.refineIdle && !window.osteon.framePending)) break;
+  }
+  return page.evaluate(() => JSON.parse(JSON.stringify(window.osteon)));
+}
+
 /// Waits for the frames a change asked for to be drawn: until the renderer (a worker) has drawn
 /// every change the page sent it, then until the frame counter stops moving over two animation
 /// frames, since OrbitControls' damping draws a few more.
@@ -161,11 +174,13 @@ export async function shootCanvas(page, name) {
 /// Counts the pixels of `png` (a screenshot of a region at client `origin`) inside `rect` (client
 /// coordinates, clipped to the image) whose colour differs from `background` ('#rrggbb') by more
 /// than 24 in some channel. The PNG is decoded by the browser itself (a blank page's canvas), so
-/// the test needs no image library. Returns { pixels, differing, fraction }.
+/// the test needs no image library. Returns { pixels, differing, fraction, luminance } (the mean
+/// luminance, 0..255, of the differing pixels: how brightly lit what is drawn there is). `rect`
+/// may be an array of rectangles: then an array of those, from one decode of the image.
 export async function countForeground(context, png, origin, rect, background) {
   const page = await context.newPage();
   try {
-    return await page.evaluate(async ({ data, origin, rect, background }) => {
+    return await page.evaluate(async ({ data, origin, rects, background }) => {
       const image = new Image();
       image.src = `data:image/png;base64,${data}`;
       await image.decode();
@@ -174,23 +189,43 @@ export async function countForeground(context, png, origin, rect, background) {
       c.height = image.height;
       const g = c.getContext('2d');
       g.drawImage(image, 0, 0);
-      const x0 = Math.max(0, Math.floor(rect.left - origin.x));
-      const y0 = Math.max(0, Math.floor(rect.top - origin.y));
-      const x1 = Math.min(image.width, Math.ceil(rect.right - origin.x));
-      const y1 = Math.min(image.height, Math.ceil(rect.bottom - origin.y));
-      if (x1 <= x0 || y1 <= y0) return { pixels: 0, differing: 0, fraction: 0 };
-      const px = g.getImageData(x0, y0, x1 - x0, y1 - y0).data;
-      const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
-      let differing = 0;
-      for (let i = 0; i < px.length; i += 4) {
-        if (Math.abs(px[i] - bg[0]) > 24 || Math.abs(px[i + 1] - bg[1]) > 24 || Math.abs(px[i + 2] - bg[2]) > 24) ++differing;
-      }
-      const pixels = px.length / 4;
-      return { pixels, differing, fraction: differing / pixels };
-    }, { data: png.toString('base64'), origin, rect, background });
+      const count = (rect) => {
+        const x0 = Math.max(0, Math.floor(rect.left - origin.x));
+        const y0 = Math.max(0, Math.floor(rect.top - origin.y));
+        const x1 = Math.min(image.width, Math.ceil(rect.right - origin.x));
+        const y1 = Math.min(image.height, Math.ceil(rect.bottom - origin.y));
+        if (x1 <= x0 || y1 <= y0) return { pixels: 0, differing: 0, fraction: 0, luminance: 0 };
+        const px = g.getImageData(x0, y0, x1 - x0, y1 - y0).data;
+        const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
+        let differing = 0;
+        let light = 0;
+        for (let i = 0; i < px.length; i += 4) {
+          if (Math.abs(px[i] - bg[0]) > 24 || Math.abs(px[i + 1] - bg[1]) > 24 || Math.abs(px[i + 2] - bg[2]) > 24) {
+            ++differing;
+            light += 0.2126 * px[i] + 0.7152 * px[i + 1] + 0.0722 * px[i + 2];
+          }
+        }
+        const pixels = px.length / 4;
+        return { pixels, differing, fraction: differing / pixels, luminance: differing ? light / differing : 0 };
+      };
+      return Array.isArray(rects) ? rects.map(count) : count(rects);
+    }, { data: png.toString('base64'), origin, rects: rect, background });
   } finally {
     await page.close();
   }
+}
+
+/// Rewrites a package packed with --no-lod as version 2 (the format before levels of detail):
+/// manifest.json and its .gz. Returns the manifest.
+export function asVersion2(dir) {
+  const file = path.join(dir, 'manifest.json');
+  const json = JSON.parse(readFileSync(file, 'utf8'));
+  if (json.components.some((c) => c.levels)) throw new Error(`${dir}: has levels of detail, not a version 2 package`);
+  json.version = 2;
+  const text = JSON.stringify(json);
+  writeFileSync(file, text);
+  writeFileSync(`${file}.gz`, gzipSync(text, { level: 9 }));
+  return json;
 }
 
 /// The chunk files of a package folder (c/*.ostc), by name.

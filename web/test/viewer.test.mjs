@@ -9,7 +9,9 @@
 //
 // Environment: see browser_helpers.mjs (OSTEON_CLI, OSTEON_VIEWER_DIR, OSTEON_SHARED_DATA,
 // OSTEON_CHROMIUM). The BodyParts3D test skips when the real data is absent; everything else runs
-// on the generated phantom skeleton (`osteon phantom`).
+// on the generated phantom skeleton (`osteon phantom`): packed without levels of detail and
+// rewritten as version 2 (the format before levels) for the loading, renderer and phone tests,
+// which must work as they always did; packed denser and with levels for the refinement tests.
 
 import assert from 'node:assert/strict';
 import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, unlinkSync } from 'node:fs';
@@ -19,6 +21,7 @@ import { after, before, describe, test } from 'node:test';
 
 import {
   artifacts,
+  asVersion2,
   chunkFiles,
   corruptRange,
   countForeground,
@@ -34,6 +37,7 @@ import {
   shootCanvas,
   totalBlockingTime,
   waitLoaded,
+  waitRefined,
 } from './browser_helpers.mjs';
 
 const skip = missingPrerequisite();
@@ -50,6 +54,17 @@ function readState(page) {
     const { screenPositionOf, screenBoundsOf, select, frame, ...plain } = window.osteon;
     return JSON.parse(JSON.stringify(plain));
   });
+}
+
+/// The triangles drawn when every instance of `m` (a manifest.json) whose part `shown(part)` is
+/// drawn at the level `levelDrawn` (window.osteon's) names for its component.
+function trianglesAtLevels(m, levelDrawn, shown = () => true) {
+  const byId = new Map(m.components.map((c) => [c.id, c]));
+  return m.instances.filter((i) => shown(i.part)).reduce((sum, i) => {
+    const c = byId.get(i.component);
+    const levels = [...(c.levels ?? []), { triangles: c.triangles }];
+    return sum + levels[levelDrawn[i.component] ?? 0].triangles;
+  }, 0);
 }
 
 /// Each chunk's fetch as [start, end], from the viewer's per-component fetch log (a chunk's fetch
@@ -75,14 +90,27 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
   let server;
   let browser;
   let phantomManifest;
+  let lodManifest;
+
+  /// The dense phantom (detail 4: 16,000 triangles a bone, up to four levels each), packed with
+  /// levels of detail in 20 KB chunks, served at lod/; made once, for the tests that need it.
+  function lodPackage() {
+    if (!lodManifest) {
+      osteon('phantom', '--detail', '4', '-o', path.join(work, 'phantom-dense'));
+      lodManifest = pack([path.join(work, 'phantom-dense')], path.join(site, 'lod'), ['--chunk-bytes', '20000']);
+    }
+    return lodManifest;
+  }
 
   before(async () => {
     work = mkdtempSync(path.join(tmpdir(), 'osteon-viewer-'));
     site = path.join(work, 'site');
     mkdirSync(site);
     osteon('phantom', '-o', path.join(work, 'phantom-src'));
-    // Chunks of at most 6 KB: the phantom's 18 KB come in several.
-    phantomManifest = pack([path.join(work, 'phantom-src')], path.join(site, 'phantom'), ['--chunk-bytes', '6000']);
+    // Chunks of at most 6 KB: the phantom's 18 KB come in several. No levels, and version 2: the
+    // format as it was before levels of detail loads as it did.
+    pack([path.join(work, 'phantom-src')], path.join(site, 'phantom'), ['--chunk-bytes', '6000', '--no-lod']);
+    phantomManifest = asVersion2(path.join(site, 'phantom'));
     server = await serve(site);
     browser = await launchBrowser();
   });
@@ -197,6 +225,9 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
   }, async () => {
     const out = path.join(site, 'bodyparts3d');
     const m = pack([bonesDir], out, ['--names', metaJson]);
+    assert.equal(m.version, 3);
+    const firstChunks = new Set(m.components.map((c) => (c.levels ? c.levels[0].chunk : c.chunk)));
+    const firstBytes = [...firstChunks].reduce((sum, k) => sum + m.chunks[k].bytes, 0);
     assert.equal(m.parts.length, 235);
     const skullBones = new Set(JSON.parse(readFileSync(metaJson, 'utf8'))
       .map((e) => e.label)
@@ -206,13 +237,22 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     const context = await browser.newContext(kDesktop);
     await observeLongTasks(context);
     const { page, problems } = await openViewer(context, `${server.url}bodyparts3d/`);
-    const state = await waitLoaded(page);
+    await waitLoaded(page);
+    // Every bone at its coarsest level first, from the first chunks alone; then refined for the view.
+    const state = await waitRefined(page);
     assert.deepEqual(state.errors, []);
     assert.equal(state.renderer, 'worker');
     assert.equal(state.componentsLoaded, m.components.length);
     assert.equal(state.componentsTotal, m.components.length);
     assert.equal(state.instancesDrawn, m.instances.length);
-    assert.equal(state.trianglesDrawn, m.parts.reduce((s, p) => s + p.triangles, 0));
+    assert.equal(state.trianglesDrawn, trianglesAtLevels(m, state.levelDrawn));
+    assert.equal(state.bytesAtSkeletonComplete, firstBytes);
+    assert.ok(state.refinedMs !== null && state.firstRefinedMs >= state.skeletonCompleteMs, JSON.stringify([state.skeletonCompleteMs, state.refinedMs]));
+    const levelsDrawn = Object.values(state.levelDrawn);
+    console.log(`# BodyParts3D with levels: skeleton complete at ${state.skeletonCompleteMs.toFixed(0)} ms after ${firstBytes} of ${state.bytesTotal} bytes ` +
+      `(${(100 * firstBytes / state.bytesTotal).toFixed(0)}%); refined at ${state.firstRefinedMs.toFixed(0)} ms after ${state.bytesLoaded} bytes, ` +
+      `${state.levelLog.length} level fetches; ${state.trianglesDrawn} of ${m.parts.reduce((s, p) => s + p.triangles, 0)} triangles drawn; ` +
+      `${levelsDrawn.filter((l) => l > 0).length} of ${levelsDrawn.length} components above their coarsest level; GPU ${(state.gpuBytes / 1e6).toFixed(1)} MB`);
     assert.equal(await page.locator('#part-list li').count(), 235);
     const tbt = await totalBlockingTime(page, state.allLoadedMs);
     console.log(`# BodyParts3D (${m.components.length} components in ${m.chunks.length} chunks, ${(state.bytesTotal / 1e6).toFixed(2)} MB) from localhost: ` +
@@ -267,7 +307,7 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
 
   test('a corrupted component fails alone, a missing chunk fails its components, each named in the page; the rest loads', async () => {
     const out = path.join(site, 'corrupt');
-    const m = pack([path.join(work, 'phantom-src')], out, ['--chunk-bytes', '9000']);
+    const m = pack([path.join(work, 'phantom-src')], out, ['--chunk-bytes', '9000', '--no-lod']);
     assert.deepEqual(chunkFiles(out), m.chunks.map((c) => path.basename(c.file)).sort());
     // The corrupted component: the first of a chunk that holds others too, so they show that the
     // damage stays with it. The deleted chunk: the last one.
@@ -318,6 +358,204 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     assert.deepEqual(lostState.errors, ['osteon: missing.json: HTTP 404']);
     assert.equal(lostState.componentsTotal, 0);
     assert.match(await lostManifest.page.locator('#errors').textContent(), /missing\.json: HTTP 404/);
+    await context.close();
+  });
+
+  test('levels of detail: every bone coarse first, then refined for the view by byte range; zooming in refines what is seen; picks, isolation and the mirrored femur at every level; a budget evicts and holds', async () => {
+    const m = lodPackage();
+    assert.equal(m.version, 3);
+    const byId = new Map(m.components.map((c) => [c.id, c]));
+    const levelsOf = (id) => [...(byId.get(id).levels ?? []), byId.get(id)];
+    const componentsOf = (name) => {
+      const part = m.parts.find((p) => p.name === name);
+      return [...new Set(m.instances.filter((i) => i.part === part.id).map((i) => i.component))];
+    };
+    const copies = (id) => {
+      const uses = m.instances.filter((i) => i.component === id);
+      const mirrored = uses.filter((i) => i.mirror).length;
+      return uses.length === 1 ? 1 : (mirrored > 0) + (mirrored < uses.length);
+    };
+    const firstGpu = m.components.reduce((sum, c) => sum + levelsOf(c.id)[0].vertices * 24 + levelsOf(c.id)[0].triangles * 12 * copies(c.id), 0);
+    const firstChunks = new Set(m.components.map((c) => (c.levels ? c.levels[0].chunk : c.chunk)));
+    const firstBytes = [...firstChunks].reduce((sum, k) => sum + m.chunks[k].bytes, 0);
+    assert.ok(m.components.filter((c) => c.levels?.length >= 2).length >= 5, 'most bones have three levels or more');
+    assert.ok(firstChunks.size < m.chunks.length);
+
+    const context = await browser.newContext(kDesktop);
+    const { page, problems } = await openViewer(context, `${server.url}lod/`);
+    const loaded = await waitLoaded(page);
+    assert.deepEqual(loaded.errors, []);
+    assert.equal(loaded.componentsLoaded, m.components.length);
+    assert.equal(loaded.levelsTotal, m.components.reduce((n, c) => n + levelsOf(c.id).length, 0));
+    // The whole skeleton, at its coarsest, from the first chunks alone, before any finer level.
+    assert.ok(loaded.skeletonCompleteMs !== null && loaded.firstFrameMs <= loaded.skeletonCompleteMs);
+    assert.ok(loaded.fetchLog.every((e) => firstChunks.has(e.chunk)));
+    assert.equal(loaded.bytesAtSkeletonComplete, firstBytes);
+    let state = await waitRefined(page);
+    assert.ok(state.levelLog.every((e) => e.fetchStart >= state.skeletonCompleteMs), 'no level fetched before the skeleton was complete');
+    assert.ok(state.firstRefinedMs >= state.skeletonCompleteMs && state.refinedMs !== null);
+    assert.deepEqual(state.errors, []);
+    console.log(`# dense phantom: skeleton complete at ${state.skeletonCompleteMs.toFixed(0)} ms after ${firstBytes} of ${state.bytesTotal} bytes; ` +
+      `refined for the whole view at ${state.firstRefinedMs.toFixed(0)} ms after ${state.bytesLoaded} bytes (${state.levelLog.length} level fetches); ` +
+      `levels ${JSON.stringify(state.levelDrawn)}`);
+
+    // Zoom into the pelvis: its levels rise; what left the view drops to its coarsest; only
+    // components on screen are above it.
+    const before = state.levelDrawn;
+    await page.evaluate(() => window.osteon.frame('pelvis'));
+    state = await waitRefined(page);
+    const raised = Object.keys(state.levelDrawn).filter((id) => state.levelDrawn[id] > before[id]);
+    const pelvis = componentsOf('pelvis');
+    assert.ok(pelvis.every((id) => raised.includes(id)), `raised ${raised}, pelvis ${pelvis}`);
+    assert.ok(componentsOf('skull').every((id) => state.levelDrawn[id] === 0), 'the skull, off screen, at its coarsest');
+    for (const id of Object.keys(state.levelDrawn)) {
+      if (state.levelDrawn[id] > 0) assert.ok(id in state.levelWanted, `${id} is refined off screen`);
+    }
+    const raisedParts = m.parts.filter((p) => componentsOf(p.name).some((id) => raised.includes(id))).map((p) => p.name);
+    console.log(`# zoomed to the pelvis: raised ${raisedParts.join(', ')}; on screen ${Object.keys(state.levelWanted).length} of ${m.components.length} components; ` +
+      `refined at ${state.refinedMs.toFixed(0)} ms`);
+    assert.ok(state.levelLog.length > 0 && state.levelLog.every((e) => e.status === 206 && e.received === e.bytes), JSON.stringify(state.levelLog.slice(0, 3)));
+    const ranged = server.requests.filter((r) => /^GET \/lod\/c\/[0-9a-f]{24}\.ostc 206/.test(r));
+    // One request a level (more only where an answer came short and was continued).
+    assert.equal(ranged.length, state.levelLog.reduce((n, e) => n + e.requests, 0), ranged.join('\n'));
+
+    // The panel names the level drawn; isolating the pelvis draws it alone, at that level.
+    await page.evaluate(() => window.osteon.select('pelvis'));
+    const pelvisLevel = state.levelDrawn[pelvis[0]];
+    const pelvisLevels = levelsOf(pelvis[0]).length;
+    assert.match(await page.locator('#info-level').textContent(), new RegExp(`^level ${pelvisLevel + 1} of ${pelvisLevels}(?: \\(full resolution\\))?, error [0-9.]+ mm$`));
+    await page.locator('#isolate').click();
+    state = await readState(page);
+    const pelvisPart = m.parts.find((p) => p.name === 'pelvis').id;
+    assert.equal(state.instancesDrawn, pelvis.length);
+    assert.equal(state.trianglesDrawn, trianglesAtLevels(m, state.levelDrawn, (part) => part === pelvisPart));
+    await page.locator('#show-all').click();
+    await page.locator('#canvas').press('Escape');
+
+    // The left femur, a mirrored instance of the right one's component: a pick names it at every level.
+    await page.evaluate(() => window.osteon.frame('femur_l'));
+    await waitRefined(page);
+    const femur = componentsOf('femur_l')[0];
+    assert.deepEqual(componentsOf('femur_r'), [femur]);
+    assert.ok(m.instances.some((i) => i.component === femur && i.mirror));
+    const femurLevels = levelsOf(femur).length;
+    const pixels = await page.evaluate((id) => window.osteon.levelPixels(id), femur);
+    // Nothing finer held (a budget of nothing evicts every fine level), so that each level is
+    // fetched and drawn in turn.
+    await page.evaluate(() => window.osteon.setBudget({ bytes: 0 }));
+    assert.deepEqual(Object.values((await waitRefined(page)).levelDrawn).filter((l) => l > 0), []);
+    await page.evaluate(() => window.osteon.setBudget({ bytes: 256e6 }));
+    for (let k = 0; k < femurLevels; ++k) {
+      // The pixel target that makes level k the one needed: between its error and the next coarser one's.
+      const target = k === 0 ? pixels[0] * 2 : Math.sqrt(pixels[k] * pixels[k - 1]);
+      await page.evaluate((px) => window.osteon.setMaxPixelError(px), target);
+      state = await waitRefined(page);
+      assert.equal(state.levelDrawn[femur], k, `femur at level ${k} for ${target} px (${pixels})`);
+      const at = await page.evaluate(() => window.osteon.screenPositionOf('femur_l'));
+      await page.mouse.click(at.x, at.y);
+      await page.waitForFunction(() => window.osteon.selected === 'femur_l');
+      assert.match(await page.locator('#info-level').textContent(), new RegExp(`^level ${k + 1} of ${femurLevels}`));
+      await page.locator('#canvas').press('Escape');
+      await page.waitForFunction(() => window.osteon.selected === null);
+    }
+
+    // Both femurs at their coarsest, then at full resolution, seen whole: the mirrored one is
+    // drawn as large and lit as brightly as the other (inside out it would be dark).
+    await page.locator('#fit').click();
+    const shots = {};
+    for (const [name, px] of [['coarse', 1e9], ['fine', 1e-6]]) {
+      await page.evaluate((p) => window.osteon.setMaxPixelError(p), px);
+      state = await waitRefined(page);
+      assert.equal(state.levelDrawn[femur], name === 'coarse' ? 0 : femurLevels - 1);
+      const { png, box } = await shootCanvas(page, `lod-femurs-${name}`);
+      const rects = await page.evaluate(() => ['femur_l', 'femur_r'].map((n) => window.osteon.screenBoundsOf(n)));
+      const [left, right] = await countForeground(context, png, box, rects, state.background);
+      shots[name] = { left, right };
+      assert.ok(left.differing > 0.7 * right.differing && left.differing < 1.4 * right.differing, `${name}: ${JSON.stringify(shots[name])}`);
+      assert.ok(left.luminance > 0.75 * right.luminance && left.luminance < 1.33 * right.luminance, `${name}: ${JSON.stringify(shots[name])}`);
+    }
+    console.log(`# femurs (left mirrored): ${Object.entries(shots).map(([k, v]) => `${k} ${v.left.differing}/${v.right.differing} px, ` +
+      `luminance ${v.left.luminance.toFixed(0)}/${v.right.luminance.toFixed(0)}`).join('; ')}`);
+
+    // A budget between the coarsest levels and what is held now evicts at once, and holds as
+    // the view moves on.
+    const held = { gpu: state.gpuBytes, levels: state.levelsLoaded, evictions: state.evictions };
+    assert.ok(held.gpu > firstGpu * 1.5, `${held.gpu} bytes held, ${firstGpu} at the coarsest`);
+    const budget = Math.round(firstGpu + (held.gpu - firstGpu) / 3);
+    const now = await page.evaluate((b) => {
+      window.osteon.setBudget({ bytes: b });
+      return { gpu: window.osteon.gpuBytes, levels: window.osteon.levelsLoaded, evictions: window.osteon.evictions, budget: window.osteon.budget };
+    }, budget);
+    assert.deepEqual(now.budget, { bytes: budget, triangles: 4e6 });
+    assert.ok(now.gpu <= budget && now.levels < held.levels && now.evictions > held.evictions, JSON.stringify({ held, now, budget }));
+    await page.evaluate(() => window.osteon.setMaxPixelError(1));
+    const fetched = (await readState(page)).levelLog.length;
+    for (const bone of ['skull', 'pelvis']) {
+      await page.evaluate((b) => window.osteon.frame(b), bone);
+      state = await waitRefined(page);
+      assert.ok(state.gpuBytesPeak <= budget, `${bone}: peak ${state.gpuBytesPeak} over the budget ${budget}`);
+    }
+    assert.ok(state.levelLog.length > fetched, 'levels are fetched again within the budget');
+    // A triangle budget below the coarsest levels: those alone are drawn.
+    const coarse = trianglesAtLevels(m, {});
+    await page.evaluate(() => window.osteon.setBudget({ bytes: 256e6, triangles: 1000 }));
+    state = await waitRefined(page);
+    assert.equal(state.gpuTriangles, coarse);
+    assert.ok(Object.values(state.levelDrawn).every((l) => l === 0));
+    assert.deepEqual(state.errors, []);
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+
+  test('a corrupt level fails alone: named in the page, the next coarser one drawn and picked; the budget comes from the URL', async () => {
+    const m = lodPackage();
+    const part = m.parts.find((p) => p.name === 'pelvis');
+    const id = m.instances.find((i) => i.part === part.id).component;
+    const c = m.components.find((x) => x.id === id);
+    const levels = (c.levels?.length ?? 0) + 1;
+    assert.ok(levels >= 3, `the pelvis has ${levels} levels`);
+    const file = m.chunks[c.chunk].file;  // its full level's chunk
+    const range = `bytes=${c.offset}-${c.offset + c.bytes - 1}`;
+    const context = await browser.newContext(kDesktop);
+    let corrupted = 0;
+    const { page, problems } = await openViewer(context, `${server.url}lod/?budgetMB=100&budgetTriangles=3000000`, async (p) => {
+      await p.route(`**/lod/${file}`, async (route) => {
+        if (route.request().headers().range !== range) return route.continue();
+        const response = await route.fetch();
+        const body = Buffer.from(await response.body());
+        for (let i = body.length / 2 - 8; i < body.length / 2 + 8; ++i) body[i] ^= 0xff;
+        corrupted++;
+        return route.fulfill({ response, body });
+      });
+    });
+    await waitLoaded(page);
+    assert.deepEqual((await readState(page)).budget, { bytes: 100e6, triangles: 3e6 });
+    await page.evaluate(() => window.osteon.frame('pelvis'));
+    await page.evaluate(() => window.osteon.setMaxPixelError(1e-6));  // everything on screen at full resolution
+    const state = await waitRefined(page);
+    assert.equal(corrupted, 1);
+    assert.equal(state.errors.length, 1, state.errors.join('\n'));
+    assert.ok(state.errors[0].startsWith(`osteon: ${file} (component ${id}, level ${levels} of ${levels}, bytes ${c.offset}-${c.offset + c.bytes})`), state.errors[0]);
+    assert.match(state.errors[0], /corrupt|checksum/i);
+    assert.match(await page.locator('#errors').textContent(), new RegExp(`component ${id}, level ${levels} of ${levels}`));
+    assert.equal(state.levelsFailed, 1);
+    assert.equal(state.componentsFailed, 0);
+    assert.equal(state.levelDrawn[id], levels - 2, 'the next coarser level is drawn');
+    assert.ok(state.refinedMs !== null, 'as refined as it can be');
+    // Every other component on screen is at its full level.
+    for (const other of Object.keys(state.levelWanted)) {
+      if (other !== id) assert.equal(state.levelDrawn[other], (m.components.find((x) => x.id === other).levels?.length ?? 0), other);
+    }
+    const at = await page.evaluate(() => window.osteon.screenPositionOf('pelvis'));
+    await page.mouse.click(at.x, at.y);
+    await page.waitForFunction(() => window.osteon.selected === 'pelvis');
+    assert.match(await page.locator('#info-level').textContent(), new RegExp(`^level ${levels - 1} of ${levels}`));
+    await page.locator('#canvas').press('Escape');
+    await settle(page);
+    const { png, box } = await shootCanvas(page, 'lod-corrupt-level');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf('pelvis'));
+    assert.ok((await countForeground(context, png, box, bounds, state.background)).fraction > 0.1, 'the pelvis is drawn');
+    assert.deepEqual(problems, []);
     await context.close();
   });
 

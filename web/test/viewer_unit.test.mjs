@@ -4,7 +4,10 @@
 // with fake fetch and decode (order, two chunks in flight, components handed over while their
 // chunk is still arriving, failures kept to what they touch, shared ranges decoded once); the
 // three.js scene (batches, mirrored winding, hiding packs instances out, picking maps back to
-// parts) and the page's own count of what it draws; the camera fit.
+// parts, levels swapped on every batch) and the page's own count of what it draws; the camera
+// fit; levels of detail: the planner (screen-space error, priorities, eviction, the budget), the
+// loader with fake fetch, decoder and renderer (byte ranges, a host that ignores them, failures
+// kept to their level), and version 2 packages loading as before.
 
 import assert from 'node:assert/strict';
 import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
@@ -12,24 +15,32 @@ import { tmpdir } from 'node:os';
 import path from 'node:path';
 import { after, before, describe, test } from 'node:test';
 
-import { Group, Raycaster, Vector3 } from 'three';
+import { Group, PerspectiveCamera, Raycaster, Vector3 } from 'three';
 
 import { defaultView, fitBox } from '../viewer/camera.mjs';
 import { determinant3, drawInfo, drawStats, findPart, formatLength, parseManifest, transformBox } from '../viewer/manifest.mjs';
 import { createPackageScene, flipWinding } from '../viewer/scene.mjs';
-import { createChunkStream, planChunks } from '../viewer/stream.mjs';
+import { createChunkStream, createChunkCache, fetchRange, planChunks } from '../viewer/stream.mjs';
+import { createLevelLoader } from '../viewer/levels.mjs';
+import {
+  assignDrawn, createRecord, evictionOrder, frustumPlanes, gpuBytes, indexCopies, instanceSpheres, isRefined, multiply4,
+  pixelsPerUnit, planLevels, projectedError, screenNeeds, sphereOutside, wantedLevel,
+} from '../viewer/refine.mjs';
+import { budgetFromParams } from '../viewer/state.mjs';
 import { cli, osteon } from './browser_helpers.mjs';
 
 const skipCli = cli && existsSync(cli) ? false : 'the osteon CLI is not built (set OSTEON_CLI)';
 
-/// A decoded mesh for `component`: its bounding box as 12 triangles, then degenerate triangles up
-/// to the manifest's triangle count (addComponent checks the count).
-function fakeMesh(component) {
+/// A decoded mesh for `component` at `level` (default 0, its first): its bounding box as 12
+/// triangles (shrunk towards the centre by `shrink`, so levels differ), then degenerate triangles
+/// up to the manifest's triangle count for that level (the scene checks the count).
+function fakeMesh(component, level = 0, shrink = 0) {
   const { min, max } = component.bounds;
+  const mid = min.map((v, i) => (v + max[i]) / 2);
   const positions = new Float32Array(24);
-  for (let v = 0; v < 8; ++v) positions.set([0, 1, 2].map((i) => ((v >> i) & 1 ? max[i] : min[i])), 3 * v);
+  for (let v = 0; v < 8; ++v) positions.set([0, 1, 2].map((i) => mid[i] + (1 - shrink) * (((v >> i) & 1 ? max[i] : min[i]) - mid[i])), 3 * v);
   const box = [0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3];
-  const indices = new Uint32Array(3 * component.triangles);
+  const indices = new Uint32Array(3 * component.levels[level].triangles);
   indices.set(box.slice(0, indices.length));
   return { positions, indices, normals: new Float32Array(24).fill(0.5) };
 }
@@ -76,7 +87,7 @@ describe('manifest, scene and camera on a packed phantom', { skip: skipCli }, ()
       edit(copy);
       assert.throws(() => parseManifest(copy), pattern);
     };
-    bad((j) => { j.version = 1; }, /manifest\.json: version: this viewer reads version 2, the package is version 1/);
+    bad((j) => { j.version = 1; }, /manifest\.json: version: this viewer reads versions 2 and 3, the package is version 1/);
     bad((j) => { j.format = 'x'; }, /format/);
     bad((j) => { j.unit = 'furlong'; }, /unit/);
     bad((j) => { j.parts[3].prototype = 999; }, /parts\[3\]\.prototype: no part 999/);
@@ -106,7 +117,18 @@ describe('manifest, scene and camera on a packed phantom', { skip: skipCli }, ()
     for (const c of m.components) s.addComponent(c.id, fakeMesh(c));
     const stats = s.stats();
     assert.equal(stats.instances, m.instances.length);
-    assert.equal(stats.triangles, m.parts.reduce((sum, p) => sum + p.triangles, 0));
+    // Drawn at the first (coarsest) level, then at the full one.
+    const atLevel = (pick) => m.instances.reduce((sum, i) => {
+      const { levels } = m.componentById.get(i.component);
+      return sum + levels[pick(levels)].triangles;
+    }, 0);
+    assert.equal(stats.triangles, atLevel(() => 0));
+    for (const c of m.components) {
+      for (let k = 1; k < c.levels.length; ++k) s.addLevel(c.id, k, fakeMesh(c, k));
+      s.showLevel(c.id, c.levels.length - 1);
+    }
+    assert.equal(s.stats().triangles, m.parts.reduce((sum, p) => sum + p.triangles, 0));
+    assert.equal(s.stats().triangles, atLevel((levels) => levels.length - 1));
     for (const c of m.components) {
       const uses = m.instancesOf.get(c.id);
       const batches = s.batches.filter((b) => b.component === c.id);
@@ -179,6 +201,56 @@ describe('manifest, scene and camera on a packed phantom', { skip: skipCli }, ()
       loaded.add(c.id);
       if (i === Math.floor(m.streamOrder.length / 2) || i === m.streamOrder.length - 1) compare();
     }
+  });
+
+  test('levels swap on every batch of a component: the mirrored one keeps its flipped winding, picks hit at every level, removed levels are disposed', () => {
+    const m = parseManifest(json);
+    const s = createPackageScene(m, new Group());
+    for (const c of m.components) s.addComponent(c.id, fakeMesh(c));
+    // The femurs: one component, two instances, the left one mirrored.
+    const femur = findPart(m, 'femur_l');
+    const id = m.instances[m.instancesOfPart[femur.id][0]].component;
+    const c = m.componentById.get(id);
+    assert.ok(c.levels.length >= 2, `${id} has ${c.levels.length} levels`);
+    const batches = s.batches.filter((b) => b.component === id);
+    assert.deepEqual(batches.map((b) => b.mirror).sort(), [false, true]);
+    const box = m.partBounds[femur.id];
+    const centre = new Vector3(...box.min.map((v, i) => (v + box.max[i]) / 2));
+    const pick = () => {
+      const hits = new Raycaster(centre.clone().add(new Vector3(0, -5000, 0)), new Vector3(0, 1, 0)).intersectObjects(s.pickable(), false);
+      return hits.length ? m.parts[s.partOf(hits[0])].displayName : null;
+    };
+    const disposed = [];
+    for (let k = 0; k < c.levels.length; ++k) {
+      // Each level a smaller box: what is picked shows which geometry is drawn.
+      if (k > 0) s.addLevel(id, k, fakeMesh(c, k, 0.1 * k));
+      assert.equal(s.showLevel(id, k), k > 0);
+      assert.equal(s.drawnLevel(id), k);
+      const [plain, mirrored] = [batches.find((b) => !b.mirror), batches.find((b) => b.mirror)];
+      assert.equal(plain.object.geometry.index.count, 3 * c.levels[k].triangles);
+      assert.deepEqual(Array.from(plain.object.geometry.index.array.subarray(0, 3)), [0, 1, 3]);
+      assert.deepEqual(Array.from(mirrored.object.geometry.index.array.subarray(0, 3)), [0, 3, 1]);
+      assert.equal(plain.object.geometry.getAttribute('position'), mirrored.object.geometry.getAttribute('position'));
+      assert.equal(plain.object.geometry.getAttribute('position').array[0], fakeMesh(c, k, 0.1 * k).positions[0]);
+      assert.equal(pick(), 'femur_l', `picked at level ${k}`);
+      plain.object.geometry.addEventListener('dispose', () => disposed.push(k));
+    }
+    assert.deepEqual(s.takeLevelChanges(), [[id, c.levels.length - 1]]);
+    assert.deepEqual(s.drawInfo(femur.id).map((i) => i.level), [c.levels.length - 1]);
+    // The GPU bytes the page estimates from the counts are the buffers the scene holds.
+    const held = s.levelsHeld(id);
+    const bytes = () => m.components.reduce((sum, x) => sum + s.levelsHeld(x.id)
+      .reduce((t, k) => t + gpuBytes(8, x.levels[k].triangles, indexCopies(m, x.id)), 0), 0);
+    assert.equal(s.gpuBytes(), bytes());
+    // Removing the drawn level falls back to the next coarser one; the first level stays.
+    const finest = held[held.length - 1];
+    assert.ok(s.removeLevel(id, finest));
+    assert.equal(s.drawnLevel(id), finest - 1);
+    assert.deepEqual(disposed, [finest]);
+    assert.equal(pick(), 'femur_l');
+    assert.equal(s.removeLevel(id, 0), false, 'the first level is never removed');
+    assert.equal(s.gpuBytes(), bytes());
+    assert.throws(() => s.addLevel(id, finest, fakeMesh(c, finest - 1)), /decoded \d+ triangles, the manifest says/);
   });
 
   test('the camera fits the package box, upright', () => {
@@ -334,6 +406,558 @@ describe('viewer helpers', () => {
     assert.deepEqual(chunkErrors, [`osteon: ${manifest.chunks[2].file}: more than the 20 bytes the manifest says`]);
   });
 });
+
+describe('levels of detail', () => {
+  test('the screen-space error: a length over the distance (clamped at near), in the drawing buffer\'s pixels', () => {
+    const view = { fovDeg: 35, heightPx: 800, near: 0.1 };
+    const perUnit = 800 / (2 * Math.tan((35 * Math.PI) / 360));
+    assert.ok(Math.abs(pixelsPerUnit(35, 800) - perUnit) < 1e-9);
+    assert.ok(Math.abs(projectedError(0.5, 100, view) - (0.5 * perUnit) / 100) < 1e-9);
+    assert.ok(Math.abs(projectedError(0.5, 200, view) - projectedError(0.5, 100, view) / 2) < 1e-9);
+    assert.equal(projectedError(1, 0, { ...view, near: 2 }), perUnit / 2);
+    assert.equal(projectedError(1, 1, { ...view, near: 2 }), perUnit / 2);
+    assert.deepEqual(multiply4([...identity()], [...identity()]), identity());
+  });
+
+  test('the frustum keeps what is in front and within the view; needs take the coarsest level within one pixel, the finest instance\'s, nothing hidden, off screen or cut away', () => {
+    const camera = cameraAt([0, -100, 0], [0, 0, 0]);
+    const planes = frustumPlanes(multiply4(camera.projectionMatrix.elements, camera.matrixWorldInverse.elements));
+    assert.equal(sphereOutside(planes, { center: [0, 0, 0], radius: 1 }), false);
+    assert.equal(sphereOutside(planes, { center: [0, -200, 0], radius: 1 }), true, 'behind the camera');
+    assert.equal(sphereOutside(planes, { center: [1000, 0, 0], radius: 1 }), true, 'far to the side');
+    assert.equal(sphereOutside(planes, { center: [0, 0, 40], radius: 20 }), false, 'straddling the top plane');
+
+    const m = parseManifest(levelPackage());
+    const spheres = instanceSpheres(m);
+    assert.deepEqual(spheres.map((x) => x.center), [[0, 0, 0], [100, 0, 0], [-100, 0, 0], [200, 0, 0]]);
+    assert.ok(spheres.every((x) => Math.abs(x.radius - Math.sqrt(75)) < 1e-9 && x.scale === 1));
+    const needsAt = (y, x = 0, options = {}, clip = null) => screenNeeds(m, spheres, viewOf(cameraAt([x, y, 0], [x, 0, 0]), 800, clip), options);
+    // c0's errors: 2, 0.5, 0.05 (its bound); coarsest within 1 px beyond 2537 units, level 1 beyond 643.
+    const far = needsAt(-3000);
+    assert.deepEqual([...far.keys()].sort(), ['c0', 'c1', 'c2']);
+    assert.equal(far.get('c0').target, 0);
+    const expected = projectedError(2, Math.hypot(3000) - Math.sqrt(75), { fovDeg: 35, heightPx: 800, near: 0.1 });
+    assert.ok(Math.abs(far.get('c0').pixels[0] - expected) < 1e-9);
+    assert.equal(needsAt(-1000).get('c0').target, 1);
+    assert.equal(needsAt(-100).get('c0').target, 2);
+    assert.equal(needsAt(-100, 0, { maxPixelError: 1000 }).get('c0').target, 0);
+    // Close to c0, the others are off screen.
+    assert.deepEqual([...needsAt(-30).keys()], ['c0']);
+    // c1 is drawn by two instances: the nearer one decides.
+    const right = needsAt(-60, 100);
+    assert.deepEqual([...right.keys()], ['c1']);
+    assert.equal(right.get('c1').target, 1);
+    assert.ok(right.get('c1').pixels[0] > needsAt(-3000).get('c1').pixels[0]);
+    // Hidden parts and what the clipping plane cuts away need nothing.
+    assert.deepEqual([...needsAt(-3000, 0, { shown: (i) => i !== 0 }).keys()].sort(), ['c1', 'c2']);
+    const clipped = needsAt(-3000, 0, {}, { normal: [1, 0, 0], constant: -50 });
+    assert.deepEqual([...clipped.keys()].sort(), ['c1', 'c2']);
+    const onlyLeft = needsAt(-3000, 0, { shown: (i) => i === 2 });
+    assert.deepEqual([...onlyLeft.keys()], ['c1']);
+  });
+
+  test('priorities: the worst-looking component on screen first, the level it needs fetched directly, a few at a time', () => {
+    const m = parseManifest(levelPackage());
+    const [c0, c1] = records(m);
+    const needs = new Map([
+      ['c0', { pixels: [10, 3, 0.3], target: 2 }],
+      ['c1', { pixels: [20, 0.9], target: 1 }],
+    ]);
+    const big = { bytes: 1e9, triangles: 1e9 };
+    assert.deepEqual(planLevels([c0, c1], needs, big, { slots: 1 }).fetch.map((f) => [f.id, f.level]), [['c1', 1]]);
+    assert.deepEqual(planLevels([c0, c1], needs, big, { slots: 3 }).fetch.map((f) => [f.id, f.level]), [['c1', 1], ['c0', 2]]);
+    // The priority is the error of what is drawn now: c1 drawn at its finest needs nothing.
+    c1.resident.set(1, { bytes: c1.gpu[1], lastVisible: 0 });
+    const plan = planLevels([c0, c1], needs, big, { slots: 3 });
+    assert.deepEqual(plan.fetch.map((f) => [f.id, f.level]), [['c0', 2]]);
+    assert.equal(plan.drawn.get('c1'), 1);
+    // In flight: not asked again.
+    c0.pending = 2;
+    assert.deepEqual(planLevels([c0, c1], needs, big, { slots: 3 }).fetch, []);
+    c0.pending = null;
+    // A failed level is not asked again; the next best is.
+    c0.failed.add(2);
+    assert.equal(wantedLevel(c0, 2), 1);
+    c0.failed.add(1);
+    assert.equal(wantedLevel(c0, 2), -1);
+    assert.equal(isRefined([c0], needs, () => 0), true, 'at its finest level that did not fail');
+    c0.failed.clear();
+    assert.equal(isRefined([c0], needs, () => 1), false);
+    assert.equal(isRefined([c0], needs, () => 2), true);
+  });
+
+  test('eviction: the coarsest level never, levels drawn on screen last, the least recently seen first', () => {
+    const m = parseManifest(levelPackage());
+    const [c0, c1] = records(m);
+    c0.resident.set(1, { bytes: 100, lastVisible: 50 });
+    c0.resident.set(2, { bytes: 300, lastVisible: 10 });
+    c1.resident.set(1, { bytes: 200, lastVisible: 30 });
+    const order = (needs, drawnOf) => evictionOrder([c0, c1], needs, drawnOf).map((v) => `${v.rec.id}/${v.level}${v.inUse ? '*' : ''}`);
+    // Nothing on screen: by last sight.
+    assert.deepEqual(order(new Map(), () => 0), ['c0/2', 'c1/1', 'c0/1']);
+    // c0 on screen drawn at level 2: that one goes last.
+    const needs = new Map([['c0', { pixels: [9, 3, 1], target: 2 }]]);
+    assert.deepEqual(order(needs, (r) => (r.id === 'c0' ? 2 : 0)), ['c1/1', 'c0/1', 'c0/2*']);
+    // Planning for c1 with room for its level only after an eviction: the unseen c0 level goes, not the one drawn.
+    const base = c0.resident.get(0).bytes + c1.resident.get(0).bytes;
+    c0.drawn = 2;
+    c1.resident.delete(1);
+    const plan = planLevels([c0, c1], new Map([...needs, ['c1', { pixels: [5, 0.5], target: 1 }]]),
+      { bytes: base + 400 + c1.gpu[1] - 100, triangles: 1e9 }, { slots: 2 });
+    assert.deepEqual(plan.fetch.map((f) => [f.id, f.level]), [['c1', 1]]);
+    assert.deepEqual(plan.evict.map((e) => [e.id, e.level]), [['c0', 1]]);
+    assert.equal(plan.drawn.get('c0'), 2);
+    assert.ok(plan.bytes + c1.gpu[1] <= base + 400 + c1.gpu[1] - 100);
+    // The budget lowered below what is drawn: the drawn level goes too, and c0 falls back.
+    const low = planLevels([c0, c1], needs, { bytes: base + 50, triangles: 1e9 });
+    assert.deepEqual(low.evict.map((e) => [e.id, e.level]).sort(), [['c0', 1], ['c0', 2]]);
+    assert.equal(low.drawn.get('c0'), 0);
+  });
+
+  test('the triangle budget: drawn levels fit it, the largest errors served first; the coarsest levels always drawn', () => {
+    const m = parseManifest(levelPackage());
+    const [c0, c1, c2] = records(m);
+    for (const l of [1, 2]) c0.resident.set(l, { bytes: 1, lastVisible: 0 });
+    c1.resident.set(1, { bytes: 1, lastVisible: 0 });
+    const needs = new Map([['c0', { pixels: [9, 3, 0.1], target: 2 }], ['c1', { pixels: [20, 0.5], target: 1 }]]);
+    const base = 40 + 2 * 100 + 50;
+    assert.deepEqual([...assignDrawn([c0, c1, c2], needs, 1e9).drawn], [['c0', 2], ['c1', 1], ['c2', 0]]);
+    // Room for c1's full level (2 instances x 300 more) and c0's level 1 (120 more), not its level 2.
+    const fit = assignDrawn([c0, c1, c2], needs, base + 600 + 120);
+    assert.deepEqual([...fit.drawn], [['c0', 1], ['c1', 1], ['c2', 0]]);
+    assert.equal(fit.triangles, base + 720);
+    assert.deepEqual([...assignDrawn([c0, c1, c2], needs, 10).drawn], [['c0', 0], ['c1', 0], ['c2', 0]]);
+    // Off screen: the coarsest.
+    assert.deepEqual([...assignDrawn([c0, c1, c2], new Map(), 1e9).drawn], [['c0', 0], ['c1', 0], ['c2', 0]]);
+    // A fetch whose triangles would not fit is not started; a coarser one that fits is.
+    c0.resident.delete(2);
+    c0.resident.delete(1);
+    const plan = planLevels([c0, c1, c2], needs, { bytes: 1e9, triangles: base + 600 + 120 }, { slots: 2 });
+    assert.deepEqual(plan.fetch.map((f) => [f.id, f.level]), [['c0', 1]]);
+  });
+
+  test('whatever the views and budgets, resident bytes and drawn triangles stay within the budget (beyond the coarsest levels)', async () => {
+    const m = parseManifest(levelPackage());
+    let seed = 7;
+    const random = () => ((seed = (seed * 1103515245 + 12345) % 2147483648) / 2147483648);
+    const { loader, renderer, flush } = fakeLoader(m);
+    const base = { bytes: loader.report.gpuBytes, triangles: loader.report.gpuTriangles };
+    loader.start(0);
+    let fetched = 0;
+    for (let step = 0; step < 150; ++step) {
+      if (step % 3 === 0) {
+        loader.setBudget({ bytes: base.bytes + Math.floor(random() * 30000), triangles: base.triangles + Math.floor(random() * 1300) });
+      }
+      const x = -150 + 400 * random();
+      loader.setView(viewOf(cameraAt([x, -20 - 1500 * random() ** 2, 0], [x, 0, 0])));
+      await flush();
+      renderer.frame();
+      const { report } = loader;
+      assert.ok(report.gpuBytes <= Math.max(report.budget.bytes, base.bytes), `step ${step}: ${report.gpuBytes} bytes, budget ${report.budget.bytes}`);
+      assert.ok(report.gpuBytesPeak <= Math.max(report.budget.bytes, base.bytes));
+      assert.ok(report.gpuTriangles <= Math.max(report.budget.triangles, base.triangles), `step ${step}: ${report.gpuTriangles} triangles`);
+      assert.equal(report.gpuBytes, renderer.bytes(), 'the page counts what the renderer holds');
+      fetched = report.levelLog.length;
+    }
+    console.log(`# budget walk: ${fetched} level fetches, ${loader.report.evictions} evictions`);
+    assert.ok(fetched > 5, `${fetched} level fetches`);
+    assert.ok(loader.report.evictions > 0, 'some levels were evicted');
+  });
+
+  test('the loader: byte ranges for what the view needs, the level swapped in, refined once shown; off screen back to the coarsest', async () => {
+    const m = parseManifest(levelPackage());
+    const { loader, renderer, flush, requests, messages } = fakeLoader(m);
+    assert.equal(loader.hasLevels, true);
+    assert.equal(loader.report.levelsTotal, 3 + 2 + 1);
+    assert.equal(loader.report.levelsLoaded, 3);
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    assert.equal(requests.length, 0, 'nothing before start');
+    loader.start(5);
+    await flush();
+    const c0 = m.componentById.get('c0');
+    assert.deepEqual(requests, [`${m.chunks[1].file} bytes=${c0.levels[2].offset}-${c0.levels[2].offset + c0.levels[2].bytes - 1}`]);
+    assert.equal(loader.report.refinedMs, null, 'not refined until the renderer shows it');
+    assert.equal(loader.report.refineIdle, false);
+    renderer.frame(42);
+    assert.equal(loader.report.levelDrawn.c0, 2);
+    assert.equal(loader.report.refinedMs, 42);
+    assert.equal(loader.report.firstRefinedMs, 42);
+    assert.equal(loader.report.refineIdle, true);
+    const log = loader.report.levelLog;
+    assert.deepEqual(log.map((e) => [e.id, e.level, e.status, e.received, e.shownAt]), [['c0', 2, 206, c0.levels[2].bytes, 42]]);
+    assert.equal(loader.report.levelBytesLoaded, c0.levels[2].bytes);
+    assert.equal(loader.report.gpuBytes, renderer.bytes());
+    // To c1: it refines, c0 (off screen) is drawn at its coarsest again, its level kept.
+    loader.setView(viewOf(cameraAt([100, -60, 0], [100, 0, 0])));
+    await flush();
+    renderer.frame(50);
+    assert.deepEqual(loader.report.levelDrawn, { c0: 0, c1: 1, c2: 0 });
+    assert.equal(loader.report.refinedMs, 50);
+    assert.equal(loader.report.firstRefinedMs, 42);
+    assert.ok(messages.some((x) => x.type === 'lod' && x.show.some(([id, l]) => id === 'c0' && l === 0)));
+    assert.equal(renderer.held('c0').join(), '0,2');
+    // Back: c0's level 2 is still resident, swapped in by the same plan, not fetched again.
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    assert.equal(renderer.pendingShow('c0'), 2);
+    await flush();
+    assert.equal(requests.length, 2);
+  });
+
+  test('a level that arrives after the view stopped needing it is held, not drawn, and refinement still settles', async () => {
+    const m = parseManifest(levelPackage());
+    const { loader, renderer, flush } = fakeLoader(m);
+    loader.start(0);
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    loader.setView(viewOf(cameraAt([0, -5000, 0], [0, 0, 0])));  // before the level is in
+    await flush();
+    renderer.frame(3);
+    assert.deepEqual(renderer.held('c0'), [0, 2]);
+    assert.equal(loader.report.levelDrawn.c0, 0);
+    assert.equal(loader.report.refineIdle, true);
+    assert.notEqual(loader.report.refinedMs, null);
+  });
+
+  test('a host that ignores Range: the whole chunk once, the other levels sliced from the cache', async () => {
+    const m = parseManifest(levelPackage());
+    const { loader, renderer, flush, requests } = fakeLoader(m, { ignoreRange: true });
+    loader.start(0);
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    await flush();
+    loader.setView(viewOf(cameraAt([100, -60, 0], [100, 0, 0])));
+    await flush();
+    renderer.frame();
+    assert.equal(requests.length, 1, requests.join('\n'));
+    assert.deepEqual(loader.report.levelLog.map((e) => [e.id, e.level, e.status]), [['c0', 2, 200], ['c1', 1, 'cache']]);
+    assert.equal(loader.report.levelBytesLoaded, m.chunks[1].bytes);
+    assert.deepEqual(loader.report.levelDrawn, { c0: 0, c1: 1, c2: 0 });
+  });
+
+  test('a corrupt level or a failed fetch fails alone: reported, never asked again, the coarser level stays drawn', async () => {
+    const m = parseManifest(levelPackage());
+    const errors = [];
+    const { loader, renderer, flush, requests } = fakeLoader(m, { corrupt: ['c0/2'], missing: ['c1/1'], onError: (e) => errors.push(e) });
+    loader.start(0);
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    await flush();
+    renderer.frame(7);
+    const c0 = m.componentById.get('c0');
+    assert.equal(errors.length, 1);
+    assert.equal(errors[0], `osteon: ${m.chunks[1].file} (component c0, level 3 of 3, bytes ${c0.levels[2].offset}-${c0.levels[2].offset + c0.levels[2].bytes}): checksum mismatch: the stream is corrupt`);
+    // Level 2 failed: the next best, level 1, came instead, and that is as good as it gets.
+    assert.deepEqual(loader.report.levelLog.map((e) => [e.level, !!e.error]), [[2, true], [1, false]]);
+    assert.equal(loader.report.levelDrawn.c0, 1);
+    assert.equal(loader.report.levelsFailed, 1);
+    assert.equal(loader.report.refinedMs, 7);
+    loader.setView(viewOf(cameraAt([0, -90, 0], [0, 0, 0])));
+    await flush();
+    assert.equal(requests.length, 2, 'the failed level is not asked for again');
+    loader.setView(viewOf(cameraAt([100, -60, 0], [100, 0, 0])));
+    await flush();
+    renderer.frame(8);
+    assert.match(errors[1], /^osteon: c\/0{23}b\.ostc \(component c1, level 2 of 2, bytes \d+-\d+\): HTTP 404 Not Found$/);
+    assert.equal(loader.report.levelDrawn.c1, 0);
+    assert.equal(loader.report.levelsFailed, 2);
+    // The renderer refusing a level counts the same.
+    renderer.refuse('c0', 1);
+    loader.failedInRenderer('c0', 1, 'osteon: ... decoded 3 triangles, the manifest says 160');
+    await flush();
+    renderer.frame(9);
+    assert.equal(loader.report.levelDrawn.c0, 0);
+    assert.equal(errors.length, 3);
+    assert.equal(loader.report.gpuBytes, renderer.bytes());
+  });
+
+  test('lowering the budget evicts at once, shown levels after unseen ones, and the renderer falls back before disposing', async () => {
+    const m = parseManifest(levelPackage());
+    const { loader, renderer, flush, messages } = fakeLoader(m);
+    const base = loader.report.gpuBytes;
+    loader.start(0);
+    loader.setView(viewOf(cameraAt([100, -60, 0], [100, 0, 0])));
+    await flush();
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    await flush();
+    renderer.frame(1);
+    assert.deepEqual(loader.report.levelDrawn, { c0: 2, c1: 0, c2: 0 });
+    const c1Full = loader.report.levelLog.find((e) => e.id === 'c1');
+    assert.ok(c1Full && c1Full.evictedAt === null);
+    // Room for c0's level 2 alone: c1's unseen level goes.
+    const c0Full = renderer.levelBytes('c0', 2);
+    messages.length = 0;
+    assert.deepEqual(loader.setBudget({ bytes: base + c0Full }), { bytes: base + c0Full, triangles: 4e6 });
+    assert.deepEqual(messages.filter((x) => x.type === 'lod').map((x) => x.evict), [[['c1', 1]]]);
+    assert.equal(loader.report.gpuBytes, base + c0Full);
+    assert.equal(loader.report.levelDrawn.c0, 2);
+    // Below that: the drawn level goes too, shown coarser first.
+    messages.length = 0;
+    loader.setBudget({ bytes: base });
+    const lod = messages.find((x) => x.type === 'lod');
+    assert.deepEqual(lod.show, [['c0', 0]]);
+    assert.deepEqual(lod.evict, [['c0', 2]]);
+    await flush();
+    renderer.frame(2);
+    assert.equal(loader.report.gpuBytes, base);
+    assert.equal(loader.report.levelDrawn.c0, 0);
+    assert.equal(loader.report.refinedMs, null, 'not refined: the budget holds it back');
+    assert.equal(loader.report.refineIdle, true, 'and nothing more will come');
+    assert.equal(loader.report.evictions, 2);
+  });
+
+  test('version 2 packages: no levels, the first stream is the component\'s, nothing refines', () => {
+    const json = levelPackage();
+    json.version = 2;
+    for (const c of json.components) delete c.levels;
+    // Only the full streams are left; c0 and c1 lie in chunk 1, c2 in chunk 0.
+    const m = parseManifest(json);
+    assert.ok(m.components.every((c) => c.levels.length === 1 && c.first === c.levels[0] && c.first.chunk === c.chunk && c.first.offset === c.offset));
+    assert.deepEqual(planChunks(m).map((p) => [p.index, p.ranges.map((r) => r.components.map((c) => c.id).join())]), [[0, ['c2']], [1, ['c0', 'c1']]]);
+    const { loader } = fakeLoader(m);
+    assert.equal(loader.hasLevels, false);
+    assert.equal(loader.report.refineIdle, true);
+    loader.start(12);
+    assert.equal(loader.report.refinedMs, 12);
+    assert.equal(loader.report.levelsLoaded, 3);
+    assert.equal(loader.report.levelsTotal, 3);
+    // Version 3: the first streams alone are streamed.
+    const v3 = parseManifest(levelPackage());
+    assert.deepEqual(planChunks(v3).map((p) => [p.index, p.ranges.map((r) => r.components.map((c) => `${c.id}@${r.offset}`).join())]), [[0, ['c0@0', 'c1@20', 'c2@40']]]);
+  });
+
+  test('fetchRange: 206 checked against the range asked, 200 cached whole, errors said plainly; the chunk cache keeps the most recent', async () => {
+    const chunk = { url: 'http://x/c/a.ostc', file: 'c/a.ostc', bytes: 10 };
+    const whole = Uint8Array.from({ length: 10 }, (_, i) => i);
+    const answer = (status, body, headers = {}) => async () => ({
+      ok: status < 300, status, statusText: status === 404 ? 'Not Found' : '',
+      headers: { get: (k) => headers[k] ?? null }, arrayBuffer: async () => body.slice().buffer,
+    });
+    let got = await fetchRange(chunk, 2, 3, { fetch: answer(206, whole.slice(2, 5), { 'Content-Range': 'bytes 2-4/10' }) });
+    assert.deepEqual([...got.data], [2, 3, 4]);
+    assert.equal(got.status, 206);
+    await assert.rejects(fetchRange(chunk, 2, 3, { fetch: answer(206, whole.slice(3, 6), { 'Content-Range': 'bytes 3-5/10' }) }), /the host sent bytes 3-5, not bytes 2-4/);
+    // An answer cut short is continued where it stopped, past the browser's cache.
+    const asked = [];
+    const rangeHost = async (url, init) => {
+      asked.push([init.headers.Range, init.cache ?? 'default']);
+      const [, a, b] = /bytes=(\d+)-(\d+)/.exec(init.headers.Range).map(Number);
+      const body = asked.length === 1 ? whole.slice(a, a + 2) : whole.slice(a, b + 1);
+      return answer(206, body, { 'Content-Range': `bytes ${a}-${b}/10` })();
+    };
+    got = await fetchRange(chunk, 2, 5, { fetch: rangeHost });
+    assert.deepEqual([...got.data], [2, 3, 4, 5, 6]);
+    assert.deepEqual(asked, [['bytes=2-6', 'default'], ['bytes=4-6', 'no-store']]);
+    assert.equal(got.received, 5);
+    assert.equal(got.requests, 2);
+    await assert.rejects(fetchRange(chunk, 2, 3, { fetch: answer(206, new Uint8Array()) }), /0 bytes in the answers, the range has 3/);
+    await assert.rejects(fetchRange(chunk, 2, 3, { fetch: answer(206, whole.slice(2, 6)) }), /4 bytes in the answer, the range has 3/);
+    await assert.rejects(fetchRange(chunk, 2, 3, { fetch: answer(404, new Uint8Array()) }), /^Error: HTTP 404 Not Found$/);
+    await assert.rejects(fetchRange(chunk, 2, 3, { fetch: async () => { throw new TypeError('Failed to fetch'); } }), /fetch failed: Failed to fetch/);
+    await assert.rejects(fetchRange(chunk, 2, 3, { fetch: answer(200, whole.slice(0, 9)) }), /9 bytes, the manifest says 10/);
+    const cache = createChunkCache(25);
+    got = await fetchRange(chunk, 2, 3, { fetch: answer(200, whole), cache });
+    assert.deepEqual([got.status, [...got.data]], [200, [2, 3, 4]]);
+    got = await fetchRange(chunk, 7, 3, { fetch: () => assert.fail('fetched again'), cache });
+    assert.deepEqual([got.status, [...got.data], got.received], ['cache', [7, 8, 9], 0]);
+    got.data[0] = 99;
+    assert.equal(cache.get('c/a.ostc')[7], 7, 'a slice is a copy');
+    cache.put('c/b.ostc', new Uint8Array(10));
+    cache.get('c/a.ostc');
+    cache.put('c/c.ostc', new Uint8Array(10));
+    assert.ok(cache.get('c/a.ostc') && cache.get('c/c.ostc') && !cache.get('c/b.ostc'));
+    assert.equal(cache.bytes, 20);
+  });
+
+  test('the memory budget from the page\'s URL', () => {
+    assert.deepEqual(budgetFromParams(new URLSearchParams('?budgetMB=64&budgetTriangles=500000')), { bytes: 64e6, triangles: 500000 });
+    assert.deepEqual(budgetFromParams(new URLSearchParams('?budgetMB=0.5')), { bytes: 500000 });
+    assert.deepEqual(budgetFromParams(new URLSearchParams('?budgetMB=lots&budgetTriangles=-1')), {});
+  });
+});
+
+const identity = () => [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+
+/// A camera at `position` looking at `target`, Z up, 35 degrees, 3:2.
+function cameraAt(position, target) {
+  const camera = new PerspectiveCamera(35, 1.5, 0.1, 100000);
+  camera.up.set(0, 0, 1);
+  camera.position.set(...position);
+  camera.lookAt(...target);
+  camera.updateMatrixWorld();
+  return camera;
+}
+
+/// What the page's view.mjs planView hands the planner.
+function viewOf(camera, heightPx = 800, clip = null) {
+  camera.updateMatrixWorld();
+  return {
+    position: camera.position.toArray(),
+    projection: camera.projectionMatrix.elements,
+    view: camera.matrixWorldInverse.elements,
+    fovDeg: camera.fov,
+    near: camera.near,
+    heightPx,
+    clip,
+  };
+}
+
+/// The planner's records of every component of `m`, each with its first level resident.
+function records(m) {
+  return m.components.map((c) => {
+    const rec = createRecord(m, c);
+    rec.resident.set(0, { bytes: rec.gpu[0], lastVisible: 0 });
+    return rec;
+  });
+}
+
+/// A hand-made version 3 package of 10-unit boxes along X: part "single" (c0: 3 levels, errors 2,
+/// 0.5 and its bound 0.05; at x = 0), "right" and "left" (c1: 2 levels, error 1 then 0.05; at
+/// x = 100 and, mirrored, x = -100), "small" (c2: no levels; at x = 200). Chunk 0 holds the first
+/// streams (20 bytes each), chunk 1 the finer ones (30 bytes each). A stream's first two bytes are
+/// its component's index and level (fakeLoader's decoder reads them).
+function levelPackage() {
+  const specs = [
+    { levels: [[40, 24, 2], [160, 90, 0.5]], full: [640, 330] },
+    { levels: [[100, 60, 1]], full: [400, 210] },
+    { levels: [], full: [50, 30] },
+  ];
+  const chunks = [[], []];
+  const place = (k, ci, level) => {
+    const size = k === 0 ? 20 : 30;
+    const offset = chunks[k].length;
+    chunks[k].push(ci, level, ...Array.from({ length: size - 2 }, (_, i) => (ci * 31 + level * 7 + i) & 255));
+    return { chunk: k, offset, bytes: size };
+  };
+  const components = specs.map((spec, ci) => ({
+    id: `c${ci}`, triangles: spec.full[0], vertices: spec.full[1],
+    bounds: { min: [-5, -5, -5], max: [5, 5, 5] }, error_bound: 0.05,
+    levels: spec.levels.map(([triangles, vertices, error], level) => ({ ...place(level === 0 ? 0 : 1, ci, level), triangles, vertices, error })),
+  }));
+  components.forEach((c, ci) => Object.assign(c, place(specs[ci].levels.length ? 1 : 0, ci, specs[ci].levels.length)));
+  for (const c of components) if (!c.levels.length) delete c.levels;
+  const at = (x, mirror = false) => [mirror ? -1 : 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, 0, 0, 1];
+  const part = (id, name, triangles, prototype) => ({ id, name, display_name: name, group: '', source: `${name}.stl`, triangles, prototype });
+  return {
+    format: 'osteon-package', version: 3, unit: 'mm',
+    bounds: { min: [-105, -5, -5], max: [205, 5, 5] },
+    chunks: chunks.map((bytes, k) => ({ file: `c/${'0'.repeat(23)}${'ab'[k]}.ostc`, bytes: bytes.length, content: bytes })),
+    parts: [part(0, 'single', 640, 0), part(1, 'right', 400, 1), part(2, 'left', 400, 1), part(3, 'small', 50, 3)],
+    components,
+    instances: [
+      { part: 0, component: 'c0', matrix: at(0), mirror: false },
+      { part: 1, component: 'c1', matrix: at(100), mirror: false },
+      { part: 2, component: 'c1', matrix: at(-100, true), mirror: true },
+      { part: 3, component: 'c2', matrix: at(200), mirror: false },
+    ],
+    stream_order: ['c0', 'c1', 'c2'],
+  };
+}
+
+/// A level loader on manifest `m` (from levelPackage) with a fake host, decoder and renderer.
+/// Every component's first level is sent and drawn. `ignoreRange`: the host answers 200 with the
+/// whole chunk; `corrupt`, `missing`: 'c0/2' streams the decoder refuses, ranges the host has not.
+/// Returns { loader, renderer (frame(at), bytes(), held(id), levelBytes(id, level),
+/// pendingShow(id)), flush (waits for the fetches and decodes), requests ('file bytes=a-b'),
+/// messages (to the renderer) }.
+function fakeLoader(m, { ignoreRange = false, corrupt = [], missing = [], onError = () => {} } = {}) {
+  const json = levelPackage();
+  const contentOf = new Map(json.chunks.map((c) => [c.file, Uint8Array.from(c.content)]));
+  const requests = [];
+  const messages = [];
+  let inFlight = 0;
+  const streamOf = (bytes) => {
+    const c = m.components[bytes[0]];
+    return { c, level: bytes[1] };
+  };
+  const meshOf = (c, level) => {
+    const l = c.levels[level];
+    return { positions: new Float32Array(3 * l.vertices), normals: new Float32Array(3 * l.vertices), indices: new Uint32Array(3 * l.triangles) };
+  };
+  // The renderer: levels held per component, the level drawn, changes since the last frame.
+  const held = new Map(m.components.map((c) => [c.id, new Map()]));
+  const drawn = new Map();
+  const changes = new Map();
+  let lastShow = new Map();
+  const fetch = async (url, init) => {
+    const file = url.slice(url.indexOf('c/'));
+    const range = /bytes=(\d+)-(\d+)/.exec(init.headers.Range);
+    requests.push(`${file} ${init.headers.Range}`);
+    inFlight++;
+    await tick();
+    inFlight--;
+    const content = contentOf.get(file);
+    const [a, b] = [Number(range[1]), Number(range[2])];
+    if (missing.includes(`${m.components[content[a]].id}/${content[a + 1]}`)) return { ok: false, status: 404, statusText: 'Not Found', headers: { get: () => null } };
+    const body = ignoreRange ? content : content.slice(a, b + 1);
+    return {
+      ok: true, status: ignoreRange ? 200 : 206,
+      headers: { get: (k) => (k === 'Content-Range' && !ignoreRange ? `bytes ${a}-${b}/${content.length}` : null) },
+      arrayBuffer: async () => body.slice().buffer,
+    };
+  };
+  const decode = async (buffer, label) => {
+    inFlight++;
+    await tick();
+    inFlight--;
+    const { c, level } = streamOf(new Uint8Array(buffer));
+    if (corrupt.includes(`${c.id}/${level}`)) throw new Error(`osteon: ${label}: checksum mismatch: the stream is corrupt`);
+    return meshOf(c, level);
+  };
+  const send = (message) => {
+    messages.push(message);
+    if (message.type === 'level') {
+      for (const id of message.ids) {
+        assert.ok(!held.get(id).has(message.level), `${id} level ${message.level} sent twice`);
+        const mesh = message.mesh;
+        held.get(id).set(message.level, gpuBytes(mesh.positions.length / 3, mesh.indices.length / 3, indexCopies(m, id)));
+      }
+    } else if (message.type === 'lod') {
+      for (const [id, level] of message.show) {
+        assert.ok(held.get(id).has(level), `${id} shown at level ${level}, which the renderer does not hold`);
+        drawn.set(id, level);
+        changes.set(id, level);
+        lastShow.set(id, level);
+      }
+      for (const [id, level] of message.evict) {
+        assert.notEqual(drawn.get(id), level, `${id} level ${level} disposed while drawn`);
+        assert.notEqual(level, 0, 'the coarsest level is never evicted');
+        held.get(id).delete(level);
+      }
+    }
+  };
+  const loader = createLevelLoader(m, { fetch, decode, send, onError, base: 'http://x/pkg/manifest.json', now: () => 0 });
+  for (const c of m.components) {
+    const mesh = meshOf(c, 0);
+    held.get(c.id).set(0, gpuBytes(mesh.positions.length / 3, mesh.indices.length / 3, indexCopies(m, c.id)));
+    drawn.set(c.id, 0);
+    loader.firstSent([c.id], mesh);
+  }
+  loader.firstDrawn(m.components.map((c) => c.id));
+  const renderer = {
+    frame(at = 0) {
+      const list = [...changes];
+      changes.clear();
+      loader.shown(list, at);
+    },
+    bytes: () => [...held.values()].reduce((sum, levels) => sum + [...levels.values()].reduce((a, b) => a + b, 0), 0),
+    held: (id) => [...held.get(id).keys()].sort((a, b) => a - b),
+    levelBytes: (id, level) => held.get(id).get(level),
+    pendingShow: (id) => lastShow.get(id),
+    // The renderer refused a level it was sent: it holds nothing of it, and draws what it drew.
+    refuse(id, level) {
+      held.get(id).delete(level);
+      if (drawn.get(id) === level) drawn.set(id, 0);
+    },
+  };
+  const flush = async () => {
+    for (let i = 0; i < 200; ++i) {
+      await tick();
+      if (inFlight === 0 && loader.report.levelLog.every((e) => e.error || e.decodedAt !== null)) {
+        await tick();
+        if (inFlight === 0) return;
+      }
+    }
+    assert.fail('the loader did not settle');
+  };
+  return { loader, renderer, flush, requests, messages };
+}
 
 /// A package of `chunks` chunks of `perChunk` components of `size` bytes, in stream order, as
 /// parseManifest returns it (the fields planChunks reads), with each chunk's bytes.

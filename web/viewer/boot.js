@@ -63,14 +63,17 @@
     boot.timings.threeFetched = performance.now();
     return code;
   });
-  // The first two chunks, once the manifest names them and three.js has arrived: until the
-  // renderer has its code no bone can be drawn, and a chunk downloading beside three.js takes a
-  // share of the link that three.js would then wait for. (main.mjs checks the manifest in full;
-  // here only the file names are checked, as the fetch needs them.)
+  // The first two chunks that hold first streams (a component's coarsest level, or its only
+  // one; finer levels come later, by byte range), once the manifest names them and three.js has
+  // arrived: until the renderer has its code no bone can be drawn, and a chunk downloading beside
+  // three.js takes a share of the link that three.js would then wait for. (main.mjs checks the
+  // manifest in full; here only the file names are checked, as the fetch needs them.)
   boot.chunksStarted = Promise.all([boot.manifest, three.catch(() => {})]).then(([manifestText]) => {
-    const chunks = JSON.parse(manifestText).chunks;
-    for (let k = 0; k < Math.min(2, chunks.length); ++k) {
-      if (!/^c\/[0-9a-f]{24}\.ostc$/.test(chunks[k].file)) continue;
+    const json = JSON.parse(manifestText);
+    const chunks = json.chunks;
+    const first = new Set(json.components.map((c) => (c.levels && c.levels.length ? c.levels[0].chunk : c.chunk)));
+    for (const k of [...first].sort((a, b) => a - b).slice(0, 2)) {
+      if (!chunks[k] || !/^c\/[0-9a-f]{24}\.ostc$/.test(chunks[k].file)) continue;
       const response = fetch(new URL(chunks[k].file, manifestUrl));
       response.catch(() => {});  // streaming.mjs reports it, naming the chunk's components
       boot.chunks.set(k, response);

@@ -29,8 +29,8 @@ import { kFovDeg } from './camera.mjs';
 import { parseManifest } from './manifest.mjs';
 import { $, buildGroups, buildListsSoon, kListsAfterMs, reportError, selectByName, updateClip, updateStats, updateStatus, wirePanel } from './panel.mjs';
 import { picked, wirePicking } from './picking.mjs';
-import { createViewerState, exposeState } from './state.mjs';
-import { componentsDrawn, componentsFailed, finish, rendererFailed, startLog, startStream } from './streaming.mjs';
+import { budgetFromParams, createViewerState, exposeState } from './state.mjs';
+import { componentsDrawn, componentsFailed, finish, levelFailed, levelsShown, rendererFailed, startLog, startStream } from './streaming.mjs';
 import { frameDrawn, resize, screenBoundsOf, screenPositionOf, startControls } from './view.mjs';
 
 // build.mjs replaces OSTEON_RENDER_WORKER_FILE with the render worker's content-hashed file name.
@@ -41,11 +41,13 @@ const kRenderWorkerFile = typeof OSTEON_RENDER_WORKER_FILE === 'string' ? OSTEON
 function onRendererMessage(state, message) {
   switch (message?.type) {
     case 'failed':
-      componentsFailed(state, message.ids, message.error);
+      if (Number.isInteger(message.level)) for (const id of message.ids) levelFailed(state, id, message.level, message.error);
+      else componentsFailed(state, message.ids, message.error);
       break;
     case 'frame':
       frameDrawn(state, message);
       if (message.drawn.length) componentsDrawn(state, message.drawn, message.at);
+      if (message.levels?.length) levelsShown(state, message.levels, message.at);
       break;
     case 'fatal':
       rendererFailed(state, message.error, message.at);
@@ -126,12 +128,16 @@ const state = createViewerState({
   boot: window.osteonBoot,
   canvas: $('canvas'),
   camera: new PerspectiveCamera(kFovDeg, 1, 0.1, 1000),
+  budget: budgetFromParams(new URLSearchParams(location.search)),
 });
 exposeState(state, {
   screenPositionOf: (name) => screenPositionOf(state, name),
   screenBoundsOf: (name) => screenBoundsOf(state, name),
   select: (name) => selectByName(state, name, { frame: false }),
   frame: (name) => selectByName(state, name, { frame: true }),
+  setBudget: (budget) => state.levels?.setBudget(budget) ?? null,
+  setMaxPixelError: (px) => state.levels?.setMaxPixelError(px) ?? null,
+  levelPixels: (id) => state.levels?.levelPixels(id) ?? null,
 });
 wirePicking(state);
 wirePanel(state);

@@ -149,7 +149,9 @@ function levelsOf(c, where, chunks, component) {
 
 /// Checks a parsed manifest.json and returns:
 ///   { unit, bounds, parts, chunks ({ index, file, bytes }), components (each with chunk,
-///     offset, bytes and file, its chunk's file), componentById: Map, instances, streamOrder
+///     offset, bytes and file, its chunk's file, of its full level; `levels`, every level
+///     coarsest first with the full one last, each { level, chunk, offset, bytes, file,
+///     triangles, vertices, error }; `first`, levels[0]), componentById: Map, instances, streamOrder
 ///     (component objects in fetch order), instancesOf: Map component id -> instance indices,
 ///     instancesOfPart: instance indices per part, partBounds: world box per part, groups,
 ///     bytesTotal (the chunks' bytes) }
@@ -305,12 +307,13 @@ export function formatLength(value, unit) {
   return unit === 'unknown' ? `${text} units` : `${text} ${unit}`;
 }
 
-/// What is drawn once the components in `loaded` (a Set of ids) are on screen and the parts for
-/// which `partVisible(partId)` holds are shown: { instances, triangles, drawCalls, components }.
-/// It counts the way scene.mjs draws (one Mesh for a component one instance uses; otherwise one
-/// InstancedMesh for the instances that keep the winding and one for the mirrored ones, each a
-/// draw call while any of its instances shows), so the page knows it without the renderer.
-export function drawStats(manifest, loaded, partVisible) {
+/// What is drawn once the components in `loaded` (a Set of ids) are on screen, each at level
+/// `levelOf(id)` (default 0: its first level), and the parts for which `partVisible(partId)`
+/// holds are shown: { instances, triangles, drawCalls, components }. It counts the way scene.mjs
+/// draws (one Mesh for a component one instance uses; otherwise one InstancedMesh for the
+/// instances that keep the winding and one for the mirrored ones, each a draw call while any of
+/// its instances shows), so the page knows it without the renderer.
+export function drawStats(manifest, loaded, partVisible, levelOf = () => 0) {
   let instances = 0;
   let triangles = 0;
   let drawCalls = 0;
@@ -321,7 +324,7 @@ export function drawStats(manifest, loaded, partVisible) {
     for (const batch of batches) {
       const shown = batch.filter((i) => partVisible(manifest.instances[i].part)).length;
       instances += shown;
-      triangles += shown * component.triangles;
+      triangles += shown * component.levels[levelOf(id)].triangles;
       drawCalls += shown > 0 ? 1 : 0;
     }
   }
@@ -329,15 +332,15 @@ export function drawStats(manifest, loaded, partVisible) {
 }
 
 /// How a part is drawn, per instance: { instance, component, loaded, instanced, batchSize,
-/// mirror } (batchSize: the instances in its draw call's batch, 0 while not loaded), as
-/// scene.mjs draws it.
-export function drawInfo(manifest, partId, loaded) {
+/// mirror, level } (batchSize: the instances in its draw call's batch, 0 while not loaded; level:
+/// `levelOf(component)`, null while not loaded), as scene.mjs draws it.
+export function drawInfo(manifest, partId, loaded, levelOf = () => 0) {
   return manifest.instancesOfPart[partId].map((i) => {
     const { component, mirror } = manifest.instances[i];
     const uses = manifest.instancesOf.get(component);
     const instanced = uses.length > 1;
     const isLoaded = loaded.has(component);
     const batchSize = !isLoaded ? 0 : instanced ? uses.filter((j) => manifest.instances[j].mirror === mirror).length : 1;
-    return { instance: i, component, loaded: isLoaded, instanced, batchSize, mirror };
+    return { instance: i, component, loaded: isLoaded, instanced, batchSize, mirror, level: isLoaded ? levelOf(component) : null };
   });
 }

@@ -51,8 +51,9 @@ export function updateStatus(state) {
   const failed = r.componentsFailed ? `, ${r.componentsFailed} failed` : '';
   if (r.done) {
     const seconds = ((r.allLoadedMs ?? performance.now()) / 1000).toFixed(2);
+    const levels = state.levels?.hasLevels ? ` · ${r.levelsLoaded} of ${r.levelsTotal} levels` : '';
     $('progress-text').textContent =
-      `${r.componentsLoaded} of ${r.componentsTotal} components${failed} · ${megabytes(r.bytesLoaded)} · ${seconds} s`;
+      `${r.componentsLoaded} of ${r.componentsTotal} components${failed}${levels} · ${megabytes(r.bytesLoaded)} · ${seconds} s`;
     $('status').classList.add('done');
   } else {
     $('progress-text').textContent =
@@ -60,14 +61,18 @@ export function updateStatus(state) {
   }
   $('stats').textContent =
     `${r.instancesDrawn.toLocaleString('en')} of ${r.instancesTotal.toLocaleString('en')} instances · ` +
-    `${r.trianglesDrawn.toLocaleString('en')} triangles · ${r.drawCalls} draw calls`;
+    `${r.trianglesDrawn.toLocaleString('en')} triangles · ${r.drawCalls} draw calls` +
+    (state.levels?.hasLevels ? ` · ${megabytes(r.gpuBytes)} of ${megabytes(r.budget.bytes)} GPU memory` : '');
 }
+
+/// The level the renderer shows of component `id` (0, the first, until it says otherwise).
+const levelOf = (state) => (id) => state.report.levelDrawn?.[id] ?? 0;
 
 /// The counts in window.osteon, from the manifest and what is on screen (synchronous: a test
 /// reads them right after a click).
 export function updateStats(state) {
   if (!state.manifest) return;
-  const s = drawStats(state.manifest, state.loaded, (id) => partVisible(state, id));
+  const s = drawStats(state.manifest, state.loaded, (id) => partVisible(state, id), levelOf(state));
   state.report.instancesDrawn = s.instances;
   state.report.trianglesDrawn = s.triangles;
   state.report.drawCalls = s.drawCalls;
@@ -93,7 +98,7 @@ function applyVisibility(state) {
 
 function drawnAs(state, part) {
   const { manifest } = state;
-  const info = drawInfo(manifest, part.id, state.loaded);
+  const info = drawInfo(manifest, part.id, state.loaded, levelOf(state));
   const words = [];
   if (part.prototype !== part.id) {
     const mirrored = info.some((i) => i.mirror);
@@ -108,7 +113,30 @@ function drawnAs(state, part) {
     words.push(`GPU-instanced${batch ? ` (${batch} in one draw call)` : ''}`);
   }
   words.push(`${info.length} component${info.length > 1 ? 's' : ''}${info.every((i) => i.loaded) ? '' : `, ${info.filter((i) => !i.loaded).length} not loaded`}`);
-  return { text: words.join(' · '), instance: part.prototype !== part.id, gpuInstanced: instanced.length > 0 };
+  return { text: words.join(' · '), instance: part.prototype !== part.id, gpuInstanced: instanced.length > 0, info };
+}
+
+/// The level a part is drawn at, for people: "level 2 of 4, error 0.31 mm" (levels counted from
+/// the coarsest; the error is the drawn level's measured distance from full resolution), a range
+/// when its components differ, "not loaded" before its first level is drawn.
+function levelText(state, info) {
+  const { manifest } = state;
+  const drawn = info.filter((i) => i.loaded);
+  if (!drawn.length) return { text: 'not loaded', level: null };
+  const levels = drawn.map((i) => manifest.componentById.get(i.component).levels);
+  const numbers = drawn.map((i) => i.level + 1);
+  const counts = levels.map((l) => l.length);
+  const error = Math.max(...drawn.map((i, k) => levels[k][i.level].error));
+  const lo = Math.min(...numbers);
+  const hi = Math.max(...numbers);
+  const of = Math.max(...counts);
+  const full = drawn.every((i, k) => i.level === counts[k] - 1);
+  const which = lo === hi && counts.every((n) => n === of) ? `level ${lo} of ${of}` : `levels ${lo}–${hi} of up to ${of}`;
+  const missing = drawn.length < info.length ? `, ${info.length - drawn.length} not loaded` : '';
+  return {
+    text: `${which}${full ? ' (full resolution)' : ''}, error ${drawn.length > 1 ? 'up to ' : ''}${formatLength(error, manifest.unit)}${missing}`,
+    level: hi,
+  };
 }
 
 /// Fills the info section for the selected part (or says none is).
@@ -128,6 +156,9 @@ export function showInfo(state) {
   $('info-triangles').textContent = part.triangles.toLocaleString('en');
   $('info-error').textContent = Number.isFinite(bound) ? formatLength(bound, manifest.unit) : '–';
   $('info-drawn').textContent = drawn.text;
+  const level = levelText(state, drawn.info);
+  $('info-level').textContent = level.text;
+  $('info').dataset.level = level.level === null ? '' : String(level.level);
   $('info').dataset.instance = String(drawn.instance);
   $('info').dataset.gpuInstanced = String(drawn.gpuInstanced);
   $('info-source').textContent = part.source || part.name;
@@ -262,6 +293,7 @@ export function updateClip(state) {
   const normal = [0, 0, 0];
   normal[axis] = sign;
   $('clip-value').textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
+  state.clip = { on, normal, constant: -sign * at };
   send(state, { type: 'clip', on, normal, constant: -sign * at });
   requestRender(state);
 }

@@ -80,6 +80,10 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
 
   return {
     add: (id, mesh) => packageScene.addComponent(id, mesh),
+    addLevel: (id, level, mesh) => packageScene.addLevel(id, level, mesh),
+    showLevel: (id, level) => packageScene.showLevel(id, level),
+    removeLevel: (id, level) => packageScene.removeLevel(id, level),
+    takeLevelChanges: () => packageScene.takeLevelChanges(),
 
     render() {
       renderer.render(scene, camera);

@@ -28,7 +28,12 @@
 //   { type: 'manifest', text } or { type: 'manifest', error }   manifest.json, fetched by the page
 //   { type: 'three', text } or { type: 'three', error }         render_three.mjs, fetched by the page
 //   { type: 'mesh', ids, mesh }             a decoded component (several ids: byte-identical
-//                                           streams); its buffers transferred
+//                                           streams), its first level; its buffers transferred
+//   { type: 'level', ids, level, mesh }     a finer level of components already sent (levels.mjs),
+//                                           held, not yet drawn; its buffers transferred
+//   { type: 'lod', show: [[id, level]], evict: [[id, level]] }
+//                                           draw those components at those levels, then dispose
+//                                           the evicted levels' geometry
 //   { type: 'camera', position, quaternion, up, fov, aspect, near, far }
 //   { type: 'size', width, height, pixelRatio }
 //   { type: 'parts', hidden (Uint8Array, 1 per hidden part), highlight (part id or -1) }
@@ -37,10 +42,12 @@
 //   { type: 'render', seq }                 draw; the frame reports the seq
 //   { type: 'shown', frame }                the page has had an animation frame since that frame
 // Messages to the page (times are the page's performance.now()):
-//   { type: 'frame', frame, seq, at, drawn: [ids] }   a frame was drawn (render() returned), with
+//   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]] }
+//                                                     a frame was drawn (render() returned), with
 //                                                     the page's changes up to `seq`; `drawn`
-//                                                     appear in it first
-//   { type: 'failed', ids, error, at }                a mesh the scene refused
+//                                                     appear in it first, `levels` at a new level
+//   { type: 'failed', ids, error, at, level? }        a mesh the scene refused (`level`: a finer
+//                                                     level's, the component stays drawn)
 //   { type: 'fatal', error, at }                      nothing will be drawn
 //   { type: 'timing', name, at }                      a step of the start: 'started', 'context',
 //                                                     'three' (loaded), 'view' (renderer made),
@@ -94,7 +101,7 @@ function createRendererState(port, local) {
     fatal: null,
     settings: new Map(),   // the latest camera, size, parts and clip, not yet applied
     picks: [],             // picks asked for before the view existed
-    queue: [],             // { ids, mesh } not yet added to the scene
+    queue: [],             // 'mesh', 'level' and 'lod' messages not yet applied to the scene, in order
     frame: 0,
     framePending: false,
     drawnComponents: 0,
@@ -153,24 +160,34 @@ function meshesForFrame(r) {
   if (r.drawnComponents > 0) return queue.length;
   let triangles = 0;
   let take = 0;
-  while (take < queue.length && (take === 0 || triangles + queue[take].mesh.indices.length / 3 <= kFirstFrameTriangles)) {
-    triangles += queue[take++].mesh.indices.length / 3;
+  const size = (message) => (message.type === 'mesh' ? message.mesh.indices.length / 3 : 0);
+  while (take < queue.length && (take === 0 || triangles + size(queue[take]) <= kFirstFrameTriangles)) {
+    triangles += size(queue[take++]);
   }
   return take;
 }
 
-/// Adds the first `take` queued meshes to the scene; returns the ids added (a mesh the scene
-/// refuses is reported as failed).
+/// Applies the first `take` queued messages to the scene; returns the ids added (a mesh the
+/// scene refuses is reported as failed).
 function addMeshes(r, take) {
   const added = [];
-  for (const { ids, mesh } of r.queue.splice(0, take)) {
-    for (const id of ids) {
+  for (const message of r.queue.splice(0, take)) {
+    if (message.type === 'lod') {
+      for (const [id, level] of message.show) r.view.showLevel(id, level);
+      for (const [id, level] of message.evict) r.view.removeLevel(id, level);
+      continue;
+    }
+    for (const id of message.ids) {
       try {
-        r.view.add(id, mesh);
-        added.push(id);
-        r.drawnComponents++;
+        if (message.type === 'level') {
+          r.view.addLevel(id, message.level, message.mesh);
+        } else {
+          r.view.add(id, message.mesh);
+          added.push(id);
+          r.drawnComponents++;
+        }
       } catch (e) {
-        post(r, { type: 'failed', ids: [id], error: String(e?.message ?? e), at: now(r) });
+        post(r, { type: 'failed', ids: [id], level: message.level, error: String(e?.message ?? e), at: now(r) });
       }
     }
   }
@@ -188,7 +205,7 @@ function drawFrame(r) {
     return;
   }
   r.frame++;
-  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added });
+  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added, levels: r.view.takeLevelChanges() });
   if (r.queue.length) requestDataFrame(r);
 }
 
@@ -307,6 +324,8 @@ function handle(r, message) {
       loadThree(r, message.text);
       return;
     case 'mesh':
+    case 'level':
+    case 'lod':
       r.queue.push(message);
       requestDataFrame(r);
       return;

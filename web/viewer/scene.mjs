@@ -13,6 +13,13 @@
 //     with FrontSide, or lit from the wrong side with DoubleSide (which flips normals on back faces).
 // Positions and normals are shared by both batches (uploaded once); only the index buffer is copied.
 //
+// Levels of detail (docs/FORMAT.md): a component's batches are made with its first level; each
+// finer level that arrives gets its own geometry (and flipped copy, where a mirrored batch needs
+// one), and showLevel() swaps the geometry of every batch of the component at once, so picking,
+// hiding, highlighting, instance colours and the mirrored batch's winding are the same at every
+// level. A level removed is disposed (its GPU buffers freed) after its batches have moved to
+// another; the first level is never removed.
+//
 // Hidden instances are packed out of an InstancedMesh (its count drops) rather than scaled to zero,
 // so they cost nothing to draw or to raycast; `slots` maps an instanceId back to the instance.
 //
@@ -50,11 +57,12 @@ export function flipWinding(indices) {
 /// The geometry of one decoded mesh ({ positions, indices, normals } from the WebAssembly decoder).
 /// The decoder's smooth normals are used when they match the positions, else recomputed. With
 /// `component` (the manifest's), the bounding box and sphere come from its bounds grown by its
-/// error bound (every decoded vertex lies within it), instead of a pass over the vertices.
-function meshGeometry(mesh, component) {
+/// error bound, or by the level's error for a coarser level (every decoded vertex lies within
+/// it), instead of a pass over the vertices.
+function meshGeometry(mesh, component, level) {
   const geometry = new BufferGeometry();
   if (component) {
-    const grow = Math.max(component.errorBound, 0);
+    const grow = Math.max(component.errorBound, level?.error ?? 0, 0);
     geometry.boundingBox = new Box3(new Vector3(...component.bounds.min), new Vector3(...component.bounds.max)).expandByScalar(grow);
     geometry.boundingSphere = geometry.boundingBox.getBoundingSphere(new Sphere());
   }
@@ -104,9 +112,11 @@ export function createPackageScene(manifest, root) {
     return pair[highlight ? 1 : 0];
   }
 
-  const batches = [];                  // every draw object: { object, instances, instanced, mirror }
+  const batches = [];                  // every draw object: { object, instances, instanced, mirror, component }
   const batchOf = new Map();           // instance index -> { batch, slot }
   const loaded = new Set();            // component ids drawn
+  const drawnOf = new Map();           // component id -> { batches, levels: Map level -> { geometry, flipped }, drawn, first }
+  const levelChanges = new Set();      // component ids whose drawn level changed since takeLevelChanges()
   let partVisible = () => true;
   let highlighted = -1;                // part id
   const matrix = new Matrix4();
@@ -145,18 +155,43 @@ export function createPackageScene(manifest, root) {
     }
   }
 
-  /// Adds a decoded component (its id and the decoder's mesh) for all its instances. Returns the
-  /// draw objects made. Throws when the mesh does not match the manifest's counts.
-  function addComponent(id, mesh) {
+  /// A level's geometry, and its winding-flipped twin (positions and normals shared) when
+  /// `mirrored` (the component has a mirrored InstancedMesh). Throws when the mesh does not match
+  /// the manifest's counts.
+  function levelGeometry(component, level, mesh, mirrored) {
+    const l = component.levels[level];
+    const triangles = mesh.indices.length / 3;
+    if (triangles !== l.triangles) {
+      const what = component.levels.length > 1 ? `, level ${level + 1} of ${component.levels.length}` : '';
+      throw new Error(`osteon: ${l.file} (component ${component.id}${what}): decoded ${triangles} triangles, the manifest says ${l.triangles}`);
+    }
+    const geometry = meshGeometry(mesh, component, l);
+    let flipped = null;
+    if (mirrored) {
+      flipped = new BufferGeometry();
+      flipped.boundingBox = geometry.boundingBox;
+      flipped.boundingSphere = geometry.boundingSphere;
+      flipped.setAttribute('position', geometry.getAttribute('position'));
+      flipped.setAttribute('normal', geometry.getAttribute('normal'));
+      flipped.setIndex(new BufferAttribute(flipWinding(geometry.index.array), 1));
+    }
+    return { geometry, flipped };
+  }
+
+  /// The geometry a batch draws of a level.
+  const geometryFor = (batch, entry) => (batch.instanced && batch.mirror ? entry.flipped : entry.geometry);
+
+  /// Adds a decoded component (its id and the decoder's mesh of level `level`, default 0: its
+  /// first stream) for all its instances. Returns the draw objects made. Throws when the mesh
+  /// does not match the manifest's counts.
+  function addComponent(id, mesh, level = 0) {
     const component = manifest.componentById.get(id);
     if (!component) throw new Error(`osteon: no component ${id} in the manifest`);
     if (loaded.has(id)) throw new Error(`osteon: component ${id}: added twice`);
-    const triangles = mesh.indices.length / 3;
-    if (triangles !== component.triangles) {
-      throw new Error(`osteon: ${component.file} (component ${id}): decoded ${triangles} triangles, the manifest says ${component.triangles}`);
-    }
-    const geometry = meshGeometry(mesh, component);
     const uses = manifest.instancesOf.get(id);
+    const mirrored = uses.length > 1 && uses.some((i) => manifest.instances[i].mirror);
+    const entry = levelGeometry(component, level, mesh, mirrored);
+    const { geometry } = entry;
     const made = [];
     if (uses.length === 1) {
       const object = new Mesh(geometry, material);
@@ -166,21 +201,10 @@ export function createPackageScene(manifest, root) {
       object.name = id;
       made.push({ object, instances: uses, instanced: false, mirror: manifest.instances[uses[0]].mirror });
     } else {
-      let flipped = null;
       for (const mirror of [false, true]) {
         const instances = uses.filter((i) => manifest.instances[i].mirror === mirror);
         if (!instances.length) continue;
-        let g = geometry;
-        if (mirror) {
-          flipped ??= new BufferGeometry();
-          flipped.boundingBox = geometry.boundingBox;
-          flipped.boundingSphere = geometry.boundingSphere;
-          flipped.setAttribute('position', geometry.getAttribute('position'));
-          flipped.setAttribute('normal', geometry.getAttribute('normal'));
-          flipped.setIndex(new BufferAttribute(flipWinding(geometry.index.array), 1));
-          g = flipped;
-        }
-        const object = new InstancedMesh(g, instancedMaterial, instances.length);
+        const object = new InstancedMesh(mirror ? entry.flipped : geometry, instancedMaterial, instances.length);
         object.name = `${id}${mirror ? ' (mirrored)' : ''}`;
         // Instance colours exist from the start, so the shader is compiled once with them.
         object.setColorAt(0, kWhite);
@@ -196,7 +220,87 @@ export function createPackageScene(manifest, root) {
       root.add(batch.object);
     }
     loaded.add(id);
+    drawnOf.set(id, { batches: made, levels: new Map([[level, entry]]), drawn: level, first: level, mirrored });
     return made.map((b) => b.object);
+  }
+
+  /// Adds level `level` of a component already drawn (its first level added), without showing
+  /// it. Throws when the mesh does not match the manifest or the level is there already.
+  function addLevel(id, level, mesh) {
+    const c = drawnOf.get(id);
+    if (!c) throw new Error(`osteon: component ${id}: a level arrived before its first one`);
+    if (c.levels.has(level)) throw new Error(`osteon: component ${id}: level ${level + 1} added twice`);
+    c.levels.set(level, levelGeometry(manifest.componentById.get(id), level, mesh, c.mirrored));
+  }
+
+  /// Draws component `id` at `level` (a level it holds) on all its batches. Returns whether
+  /// anything changed.
+  function showLevel(id, level) {
+    const c = drawnOf.get(id);
+    const entry = c?.levels.get(level);
+    if (!entry || c.drawn === level) return false;
+    for (const batch of c.batches) {
+      batch.object.geometry = geometryFor(batch, entry);
+      if (batch.instanced) {
+        // Recomputed from the new geometry's sphere and the visible instances on the next use.
+        batch.object.boundingSphere = null;
+        batch.object.boundingBox = null;
+      }
+    }
+    c.drawn = level;
+    levelChanges.add(id);
+    return true;
+  }
+
+  /// Disposes level `level` of component `id` (never its first); if it was drawn, the finest
+  /// level it holds below it is drawn instead (else the coarsest above).
+  function removeLevel(id, level) {
+    const c = drawnOf.get(id);
+    const entry = c?.levels.get(level);
+    if (!entry || level === c.first) return false;
+    if (c.drawn === level) {
+      const others = [...c.levels.keys()].filter((l) => l !== level).sort((a, b) => a - b);
+      showLevel(id, [...others].reverse().find((l) => l < level) ?? others[0]);
+    }
+    c.levels.delete(level);
+    // Both geometries share the position and normal attributes: dispose them together.
+    entry.geometry.dispose();
+    entry.flipped?.dispose();
+    return true;
+  }
+
+  /// The level component `id` is drawn at, or null when it is not drawn.
+  function drawnLevel(id) {
+    return drawnOf.get(id)?.drawn ?? null;
+  }
+
+  /// The levels held per component id (ascending), for tests.
+  function levelsHeld(id) {
+    const c = drawnOf.get(id);
+    return c ? [...c.levels.keys()].sort((a, b) => a - b) : [];
+  }
+
+  /// [[id, level]] for the components whose drawn level changed since the last call.
+  function takeLevelChanges() {
+    const out = [...levelChanges].map((id) => [id, drawnOf.get(id).drawn]);
+    levelChanges.clear();
+    return out;
+  }
+
+  /// Bytes of the GPU buffers the held levels use: positions, normals and index buffers of the
+  /// geometries a batch draws (refine.mjs gpuBytes estimates the same from the manifest).
+  function gpuBytes() {
+    let bytes = 0;
+    for (const c of drawnOf.values()) {
+      const plain = c.batches.some((b) => !(b.instanced && b.mirror));
+      const flippedUsed = c.batches.some((b) => b.instanced && b.mirror);
+      for (const { geometry, flipped } of c.levels.values()) {
+        bytes += geometry.getAttribute('position').array.byteLength + geometry.getAttribute('normal').array.byteLength;
+        if (plain) bytes += geometry.index.array.byteLength;
+        if (flippedUsed) bytes += flipped.index.array.byteLength;
+      }
+    }
+    return bytes;
   }
 
   /// Sets which parts are drawn: `visible(partId) -> boolean`.
@@ -225,7 +329,7 @@ export function createPackageScene(manifest, root) {
   }
 
   /// How a part is drawn: for each of its instances whether it is loaded, GPU-instanced (and the
-  /// batch's size), mirrored.
+  /// batch's size), mirrored, and the level drawn (null while not loaded).
   function drawInfo(partId) {
     return manifest.instancesOfPart[partId].map((i) => {
       const where = batchOf.get(i);
@@ -236,11 +340,13 @@ export function createPackageScene(manifest, root) {
         instanced: where ? where.batch.instanced : manifest.instancesOf.get(manifest.instances[i].component).length > 1,
         batchSize: where ? where.batch.instances.length : 0,
         mirror: manifest.instances[i].mirror,
+        level: where ? drawnLevel(manifest.instances[i].component) : null,
       };
     });
   }
 
-  /// Counts over the loaded components: instances and triangles drawn (visible), draw calls.
+  /// Counts over the loaded components: instances and triangles drawn (visible, at the level
+  /// drawn), draw calls.
   function stats() {
     let instances = 0;
     let triangles = 0;
@@ -249,11 +355,14 @@ export function createPackageScene(manifest, root) {
       if (!batch.object.visible) continue;
       const n = batch.instanced ? batch.object.count : 1;
       instances += n;
-      triangles += n * manifest.componentById.get(batch.component).triangles;
+      triangles += n * manifest.componentById.get(batch.component).levels[drawnLevel(batch.component)].triangles;
       ++drawCalls;
     }
     return { instances, triangles, drawCalls, components: loaded.size };
   }
 
-  return { addComponent, setVisibility, setHighlight, partOf, pickable, drawInfo, stats, materials, batches };
+  return {
+    addComponent, addLevel, showLevel, removeLevel, drawnLevel, levelsHeld, takeLevelChanges, gpuBytes,
+    setVisibility, setHighlight, partOf, pickable, drawInfo, stats, materials, batches,
+  };
 }

@@ -8,7 +8,7 @@ import { kBackground } from './camera.mjs';
 
 /// A fresh state for the page. `boot` is window.osteonBoot (boot.js), `canvas` the 3D view's
 /// canvas element, `camera` the page's three.js PerspectiveCamera (the renderer draws with a copy).
-export function createViewerState({ boot, canvas, camera }) {
+export function createViewerState({ boot, canvas, camera, budget = {} }) {
   return {
     boot,
     canvas,
@@ -34,6 +34,12 @@ export function createViewerState({ boot, canvas, camera }) {
     statusAt: -Infinity,     // when it was last rewritten
     streaming: false,
     stopStream: new AbortController(),  // once nothing can be drawn, nothing more is fetched
+    streamBytes: 0,          // bytes the first-stream chunks brought
+    pool: null,              // Promise of the decoder pool (streaming.mjs)
+    levels: null,            // the levels of detail (levels.mjs createLevelLoader), once the manifest is read
+    initialBudget: budget,   // { bytes?, triangles? } from the page's URL
+    viewSize: { width: 1, height: 1, pixelRatio: 1 },  // the view in CSS pixels
+    clip: null,              // the clipping plane as sent to the renderer: { on, normal, constant }
 
     /// Everything a test or benchmark reads (window.osteon). Times are performance.now() values:
     /// milliseconds since navigation start.
@@ -50,7 +56,15 @@ export function createViewerState({ boot, canvas, camera }) {
       chunksTotal: 0,
       manifestMs: null,        // manifest parsed (on the page)
       firstComponentMs: null,  // the renderer's first frame with a component drawn (render() returned)
-      allLoadedMs: null,       // every component drawn or failed
+      firstFrameMs: null,      // the same moment: something drawn
+      allLoadedMs: null,       // every component drawn (at its first level) or failed
+      skeletonCompleteMs: null, // every component drawn at some level (null if one failed)
+      bytesAtSkeletonComplete: null,
+      // Levels of detail (levels.mjs fills these in once the manifest is read): levelsTotal,
+      // levelsLoaded, levelsFailed, levelDrawn ({ id: level }, 0 the coarsest), levelWanted,
+      // levelLog, levelBytesLoaded, gpuBytes, gpuTriangles, gpuBytesPeak, gpuTrianglesPeak,
+      // budget ({ bytes, triangles }), maxPixelError, evictions, refinedMs, firstRefinedMs,
+      // refineIdle.
       errors: [],              // 'osteon: ...' messages, as listed in the page
       done: false,             // every component loaded or failed (or the manifest failed)
       fetchLog: [],            // per component in fetch order: { id, chunk, file, offset, bytes, fetchStart, fetchEnd, decodedAt, addedAt, error }
@@ -66,7 +80,8 @@ export function createViewerState({ boot, canvas, camera }) {
 }
 
 /// Publishes `state.report` as window.osteon, with the functions tests and benchmarks call:
-/// `api` holds screenPositionOf(name), screenBoundsOf(name?), select(name) and frame(name).
+/// `api` holds screenPositionOf(name), screenBoundsOf(name?), select(name), frame(name),
+/// setBudget({ bytes, triangles }), setMaxPixelError(px) and levelPixels(componentId).
 /// window.osteon is the report itself, so it reads what the page's modules write there.
 export function exposeState(state, api) {
   window.osteon = Object.assign(state.report, api);
@@ -76,4 +91,15 @@ export function exposeState(state, api) {
 export function partVisible(state, id) {
   const part = state.manifest.parts[id];
   return !state.hiddenParts.has(id) && state.groupOn.get(part.group) !== false;
+}
+
+/// The memory budget a page's URL asks for: ?budgetMB=64 (10^6 bytes) and ?budgetTriangles=500000;
+/// absent or not a number: the default (levels.mjs kDefaultBudget).
+export function budgetFromParams(params) {
+  const budget = {};
+  const mb = Number.parseFloat(params.get('budgetMB') ?? '');
+  const triangles = Number.parseFloat(params.get('budgetTriangles') ?? '');
+  if (Number.isFinite(mb) && mb >= 0) budget.bytes = Math.round(mb * 1e6);
+  if (Number.isFinite(triangles) && triangles >= 0) budget.triangles = Math.round(triangles);
+  return budget;
 }

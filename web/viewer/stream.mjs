@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
-// Streams a package's chunk files (docs/FORMAT.md, "Package", version 2): the chunks are fetched in
-// the manifest's order with at most two in flight, each read as a stream, and every component is
-// copied out and handed to the decoder the moment its last byte has arrived, so the first bones
-// are drawn while the rest of the chunk is still on the wire.
+// Streams a package's chunk files (docs/FORMAT.md, "Package", versions 2 and 3): the chunks that
+// hold the components' first streams (their coarsest levels) are fetched in the manifest's order
+// with at most two in flight, each read as a stream, and every component is copied out and handed
+// to the decoder the moment its last byte has arrived, so the first bones are drawn while the rest
+// of the chunk is still on the wire. The finer levels come later, one byte range at a time
+// (fetchRange, below; levels.mjs asks for them).
 //
 // Why chunks and a stream reader: a skeleton has hundreds of small components (BodyParts3D: 237 of
 // 2.7 KB on average). One request each costs a round trip per six components on HTTP/1.1, which
@@ -16,10 +18,11 @@
 //
 // No DOM and no three.js: Node tests run it with fake fetch and decode.
 
-/// The fetch plan of a parsed manifest (manifest.mjs): the chunks that hold components, in the
-/// manifest's order, each with its distinct byte ranges sorted by where they end (the order the
-/// bytes complete them). Components with byte-identical streams share one range (docs/FORMAT.md:
-/// dedup) and are decoded once. Returns [{ index, file, url, bytes, ranges: [{ offset, bytes, end,
+/// The fetch plan of a parsed manifest (manifest.mjs): the chunks that hold components' first
+/// streams (`component.first`: the coarsest level, or the only one), in the manifest's order,
+/// each with its distinct byte ranges sorted by where they end (the order the bytes complete
+/// them). Components with byte-identical streams share one range (docs/FORMAT.md: dedup) and are
+/// decoded once. Returns [{ index, file, url, bytes, ranges: [{ offset, bytes, end,
 /// components: [component, ...], label }] }]; `url` is resolved against `base`.
 export function planChunks(manifest, base) {
   const plans = manifest.chunks.map((chunk) => ({
@@ -30,17 +33,19 @@ export function planChunks(manifest, base) {
     ranges: new Map(),
   }));
   for (const component of manifest.streamOrder) {
-    const plan = plans[component.chunk];
-    const key = `${component.offset}:${component.bytes}`;
+    // A hand-made manifest (tests) may lack `first`: then the component's own range is its stream.
+    const first = component.first ?? component;
+    const plan = plans[first.chunk];
+    const key = `${first.offset}:${first.bytes}`;
     let range = plan.ranges.get(key);
     if (!range) {
-      range = { offset: component.offset, bytes: component.bytes, end: component.offset + component.bytes, components: [] };
+      range = { offset: first.offset, bytes: first.bytes, end: first.offset + first.bytes, components: [] };
       plan.ranges.set(key, range);
     }
     range.components.push(component);
   }
   return plans
-    .filter((plan) => plan.ranges.size > 0)  // a chunk no component names is not worth a request
+    .filter((plan) => plan.ranges.size > 0)  // finer levels only, or nothing: not streamed whole
     .map((plan) => {
       const ranges = [...plan.ranges.values()].sort((a, b) => a.end - b.end || a.offset - b.offset);
       for (const range of ranges) range.label = rangeLabel(plan.file, range);
@@ -163,4 +168,85 @@ export function createChunkStream(plan, options) {
   }
 
   return { run };
+}
+
+/// A few whole chunk files, the most recently used kept within `maxBytes`: where a host answers a
+/// Range request with the whole file (200), the other levels in that chunk are sliced from here
+/// instead of being downloaded again. get(file) -> Uint8Array or undefined; put(file, bytes).
+export function createChunkCache(maxBytes) {
+  const files = new Map();  // file -> bytes, least recently used first
+  let total = 0;
+  return {
+    get(file) {
+      const bytes = files.get(file);
+      if (bytes) {
+        files.delete(file);
+        files.set(file, bytes);
+      }
+      return bytes;
+    },
+    put(file, bytes) {
+      if (bytes.length > maxBytes || files.has(file)) return;
+      files.set(file, bytes);
+      total += bytes.length;
+      for (const [name, old] of files) {
+        if (total <= maxBytes) break;
+        files.delete(name);
+        total -= old.length;
+      }
+    },
+    get bytes() { return total; },
+  };
+}
+
+/// Fetches bytes [offset, offset + bytes) of a chunk file with a `Range: bytes=a-b` request.
+/// Chunks are immutable (content-hashed names), so a host that ignores Range and answers 200
+/// with the whole file is as good, only slower: the file is kept in `cache` (createChunkCache)
+/// and sliced. An answer that covers less than asked (a 206 may; one in Chromium, most likely from
+/// its HTTP cache, ended at byte 4096 of the chunk, 393 bytes into a 5,988-byte range) is
+/// continued from where it stopped, by at most two more requests that bypass the browser's cache. `chunk`: { url, file, bytes } (its
+/// size per the manifest). Resolves to { data (a Uint8Array that owns its buffer,
+/// transferable), status: 206, 200 or 'cache', received (bytes that came over the network),
+/// requests (how many were made) };
+/// throws Error('HTTP 404 ...' / 'fetch failed: ...' / what was wrong with the answer) for the
+/// caller to name the range.
+export async function fetchRange(chunk, offset, bytes, { fetch, cache, signal } = {}) {
+  const cached = cache?.get(chunk.file);
+  if (cached) return { data: cached.slice(offset, offset + bytes), status: 'cache', received: 0, requests: 0 };
+  const data = new Uint8Array(bytes);
+  let have = 0;
+  let received = 0;
+  let attempt = 0;
+  for (; attempt < 3 && have < bytes; ++attempt) {
+    const from = offset + have;
+    const to = offset + bytes - 1;
+    let response;
+    try {
+      const init = { headers: { Range: `bytes=${from}-${to}` }, signal };
+      if (attempt > 0) init.cache = 'no-store';
+      response = await fetch(chunk.url, init);
+    } catch (e) {
+      throw new Error(`fetch failed: ${e?.message ?? e}`);
+    }
+    if (!response.ok) throw new Error(`HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
+    const body = new Uint8Array(await response.arrayBuffer());
+    received += body.length;
+    if (response.status !== 206) {
+      if (body.length !== chunk.bytes) throw new Error(`${body.length} bytes, the manifest says ${chunk.bytes}`);
+      cache?.put(chunk.file, body);
+      return { data: body.slice(offset, offset + bytes), status: 200, received, requests: attempt + 1 };
+    }
+    const range = /^bytes (\d+)-(\d+)\//.exec(response.headers?.get?.('Content-Range') ?? '');
+    // What matters is where the answer starts; how far it goes is what arrived (a body cut short
+    // under a header that promised more is continued like a shorter range).
+    if (range && (Number(range[1]) !== from || Number(range[2]) > to)) {
+      throw new Error(`the host sent ${range[0].slice(0, -1)}, not bytes ${from}-${to}`);
+    }
+    if (body.length > bytes - have) throw new Error(`${body.length} bytes in the answer, the range has ${bytes - have}`);
+    data.set(body, have);
+    have += body.length;
+    if (body.length === 0) break;
+  }
+  if (have < bytes) throw new Error(`${have} bytes in the answers, the range has ${bytes}`);
+  return { data, status: 206, received, requests: attempt };
 }

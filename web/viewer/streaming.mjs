@@ -1,20 +1,22 @@
 // SPDX-License-Identifier: Apache-2.0
-// Loading: the package's chunk files read as streams (stream.mjs), each component handed to the
-// decoder workers (decoder/pool.mjs) the moment its bytes are in, and each decoded mesh passed on
-// to the renderer, its buffers transferred, not copied. Also the bookkeeping of what has loaded:
-// the per-component fetch log, the counts in window.osteon, and the end of loading (every
-// component drawn or failed, or nothing can be drawn). Every function takes the page's state
-// (state.mjs).
+// Loading: the package's chunk files read as streams (stream.mjs), each component's first stream
+// (its coarsest level) handed to the decoder workers (decoder/pool.mjs) the moment its bytes are
+// in, and each decoded mesh passed on to the renderer, its buffers transferred, not copied. Once
+// every component is drawn at its first level, the finer levels follow as the view asks for them
+// (levels.mjs). Also the bookkeeping of what has loaded: the per-component fetch log, the counts
+// in window.osteon, and the end of loading (every component drawn or failed, or nothing can be
+// drawn). Every function takes the page's state (state.mjs).
 
 import { createDecoderPool } from '../decoder/pool.mjs';
+import { createLevelLoader } from './levels.mjs';
 import { buildListsSoon, reportError, scheduleStatus, showInfo, updateStats, updateStatus } from './panel.mjs';
 import { createChunkStream, planChunks } from './stream.mjs';
 import { send } from './view.mjs';
 
 const kChunksInFlight = 2;
 
-/// Once the manifest is read: the totals in window.osteon and an empty fetch log entry per
-/// component, in fetch order.
+/// Once the manifest is read: the totals in window.osteon, an empty fetch log entry per
+/// component (its first stream), in fetch order, and the levels' loader.
 export function startLog(state) {
   const { manifest, report } = state;
   report.manifestMs = performance.now();
@@ -25,10 +27,10 @@ export function startLog(state) {
   report.chunksTotal = manifest.chunks.length;
   report.fetchLog = manifest.streamOrder.map((c) => ({
     id: c.id,
-    chunk: c.chunk,
-    file: c.file,
-    offset: c.offset,
-    bytes: c.bytes,
+    chunk: c.first.chunk,
+    file: c.first.file,
+    offset: c.first.offset,
+    bytes: c.first.bytes,
     fetchStart: null,
     fetchEnd: null,
     decodedAt: null,
@@ -36,6 +38,33 @@ export function startLog(state) {
     error: null,
   }));
   for (const entry of report.fetchLog) state.logById.set(entry.id, entry);
+  state.levels = createLevelLoader(manifest, {
+    report,
+    base: state.boot.manifestUrl,
+    budget: state.initialBudget,
+    fetch: (url, init) => fetch(url, init),
+    signal: state.stopStream.signal,
+    // The pool the first streams were decoded by; it stays for the levels.
+    decode: async (buffer, label) => {
+      const pool = await state.pool;
+      if (state.boot.decoderError) throw new Error(`osteon: ${label}: ${state.boot.decoderError}`);
+      return pool.decode(buffer, label);
+    },
+    send: (message, transfer) => send(state, message, transfer),
+    onError: (message) => {
+      reportError(state, message);
+      scheduleStatus(state);
+    },
+    onChange: () => levelsChanged(state),
+  });
+}
+
+/// The levels' report changed: the bytes, the counts and the selected bone's info follow.
+function levelsChanged(state) {
+  const { report } = state;
+  report.bytesLoaded = state.streamBytes + report.levelBytesLoaded;
+  updateStats(state);
+  if (state.selectedPart >= 0) showInfo(state);
 }
 
 /// Loading has ended at `at`: the decoder workers go, the status says so, the lists are built.
@@ -44,14 +73,19 @@ export function finish(state, at) {
   if (report.done) return;
   report.allLoadedMs = at;
   report.done = true;
-  for (const worker of state.boot?.decoders ?? []) worker.terminate();
+  report.bytesAtSkeletonComplete = report.bytesLoaded;
+  if (!state.fatal && report.componentsFailed === 0) report.skeletonCompleteMs = at;
+  // The decoders stay while finer levels may be asked for.
+  if (state.fatal || !state.levels?.hasLevels) for (const worker of state.boot?.decoders ?? []) worker.terminate();
   updateStatus(state);
   buildListsSoon(state);
+  if (!state.fatal) state.levels?.start(at);
 }
 
 /// Components `ids` failed with `error` (one message for them all).
 export function componentsFailed(state, ids, error) {
   if (state.fatal) return;
+  state.levels?.firstFailed(ids);
   for (const id of ids) {
     const entry = state.logById.get(id);
     if (entry) entry.error = error;
@@ -77,17 +111,39 @@ export function componentsDrawn(state, ids, at) {
       report.componentsLoaded++;
     }
   }
+  state.levels?.firstDrawn(ids);
   report.firstComponentMs ??= at;
+  report.firstFrameMs ??= at;
   updateStats(state);
   if (state.selectedPart >= 0) showInfo(state);
   if (state.settled.size === report.componentsTotal) finish(state, at);
+}
+
+/// The renderer's frame at `at` shows components at new levels ([[id, level]]).
+export function levelsShown(state, changes, at) {
+  state.levels?.shown(changes, at);
+}
+
+/// The renderer refused a finer level of component `id`: it fails alone, the level drawn stays.
+export function levelFailed(state, id, level, error) {
+  state.levels?.failedInRenderer(id, level, error);
 }
 
 /// Nothing can be drawn (`error`, at `at`): nothing more is fetched, and every component not yet
 /// drawn counts as failed.
 export function rendererFailed(state, error, at) {
   const { report } = state;
-  if (state.fatal || report.done) return;
+  if (state.fatal) return;
+  // Loading has ended; only finer levels could still come: they stop, and the decoders go.
+  if (report.done && state.levels?.hasLevels) {
+    state.fatal = true;
+    report.framePending = false;
+    state.stopStream.abort();
+    reportError(state, error);
+    state.pool?.then((pool) => pool.terminate(), () => {});
+    return;
+  }
+  if (report.done) return;
   state.fatal = true;
   report.framePending = false;
   state.stopStream.abort();
@@ -105,6 +161,7 @@ export async function startStream(state) {
   let next = 0;
   const poolReady = boot.wasm.then((wasm) =>
     createDecoderPool({ workers: boot.decoders.length, wasm, createWorker: () => boot.decoders[next++] }));
+  state.pool = poolReady;
   poolReady.catch((e) => {
     const message = String(e?.message ?? e);
     rendererFailed(state, message.startsWith('osteon:') ? message : `osteon: cannot start the decoder: ${message}`, performance.now());
@@ -128,18 +185,22 @@ export async function startStream(state) {
     },
     onReceived: (range, at, bytesReceived) => {
       for (const c of range.components) logById.get(c.id).fetchEnd = at;
-      state.report.bytesLoaded = bytesReceived;
+      state.streamBytes = bytesReceived;
+      state.report.bytesLoaded = bytesReceived + (state.report.levelBytesLoaded ?? 0);
       scheduleStatus(state);
     },
     onDecoded: (range, mesh, at) => {
       for (const c of range.components) logById.get(c.id).decodedAt = at;
       if (state.fatal) return;
       const buffers = [mesh.positions?.buffer, mesh.indices?.buffer, mesh.normals?.buffer].filter(Boolean);
-      send(state, { type: 'mesh', ids: range.components.map((c) => c.id), mesh }, buffers);
+      const ids = range.components.map((c) => c.id);
+      state.levels?.firstSent(ids, mesh);  // its GPU bytes, before the buffers go
+      send(state, { type: 'mesh', ids, mesh }, buffers);
     },
     onFailed: (range, error) => componentsFailed(state, range.components.map((c) => c.id), error),
     onChunkError: (chunk, error) => reportError(state, error),
   });
   await stream.run();
-  (await poolReady.catch(() => null))?.terminate();
+  // With levels of detail the pool stays: the finer levels are decoded by it too.
+  if (state.fatal || !state.levels?.hasLevels) (await poolReady.catch(() => null))?.terminate();
 }

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // The page's side of the 3D view: the messages that keep the renderer (render_worker.mjs, which
-// lists them) in step with the page (camera, size, visible parts, frame requests), the camera's
-// fit to the package or to a part, the orbit controls, and the projection of world boxes to
-// client pixels (window.osteon.screenPositionOf, screenBoundsOf). Every function takes the page's
-// state (state.mjs).
+// lists them) in step with the page (camera, size, visible parts, frame requests), the view the
+// levels of detail are planned for (levels.mjs), the camera's fit to the package or to a part,
+// the orbit controls, and the projection of world boxes to client pixels
+// (window.osteon.screenPositionOf, screenBoundsOf). Every function takes the page's state
+// (state.mjs).
 
 import { Vector3 } from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -49,11 +50,30 @@ export function requestRender(state) {
     // Until the manifest has fitted this camera, the renderer keeps the view it opened with.
     if (state.controls) {
       state.controls.update();
+      // The levels for this camera first: a level already held is swapped in by the frame that
+      // shows its component (the renderer applies them in order).
+      planView(state);
       sendCamera(state);
     }
     send(state, { type: 'render', seq: ++state.changeSeq });
     state.report.framePending = state.changeSeq > state.drawnSeq;
   });
+}
+
+/// What the levels' planner needs of the view (refine.mjs screenNeeds), and which instances show.
+export function planView(state) {
+  const { camera, manifest, levels } = state;
+  if (!levels?.hasLevels || !manifest) return;
+  camera.updateMatrixWorld();
+  levels.setView({
+    position: camera.position.toArray(),
+    projection: camera.projectionMatrix.elements,
+    view: camera.matrixWorldInverse.elements,
+    fovDeg: camera.fov,
+    near: camera.near,
+    heightPx: state.viewSize.height * state.viewSize.pixelRatio,  // the drawing buffer's pixels
+    clip: state.clip?.on ? state.clip : null,
+  }, (i) => partVisible(state, manifest.instances[i].part));
 }
 
 /// The renderer drew frame `message.frame`, with the page's changes up to `message.seq`.
@@ -79,7 +99,9 @@ export function sendParts(state) {
 export function resize(state, rect) {
   const width = Math.max(1, Math.floor(rect.width));
   const height = Math.max(1, Math.floor(rect.height));
-  send(state, { type: 'size', width, height, pixelRatio: Math.min(window.devicePixelRatio || 1, 2) });
+  const pixelRatio = Math.min(window.devicePixelRatio || 1, 2);
+  state.viewSize = { width, height, pixelRatio };
+  send(state, { type: 'size', width, height, pixelRatio });
   state.camera.aspect = width / height;
   state.camera.updateProjectionMatrix();
   requestRender(state);
