@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
@@ -161,6 +162,49 @@ TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
       EXPECT_GE(d, 0.25 * recorded) << m.parts[p].name << " level " << level;
     }
   }
+}
+
+// The CLI says what the manifest says: `pack --json` counts the levels and their bytes as the
+// files hold them, and `compare --level 0` measures the coarsest level within what is recorded.
+TEST(PackLevels, CliReportsLevelsAndCompareMeasuresThem) {
+  const std::string input = write_phantom(3);
+  const std::string out = scratch_dir() + "/cli";
+  test::CliRun packed = test::run_cli("pack " + input + " --no-viewer -o " + out + " --json");
+  ASSERT_EQ(packed.status, 0) << packed.err;
+  const nlohmann::json report = nlohmann::json::parse(packed.out);
+  const Manifest m = read_manifest(out);
+  uint64_t level_bytes = 0, levels = 0, chunk_bytes = 0;
+  double coarsest = 0, full = 0;
+  std::map<std::string, const ManifestComponent*> by_id;
+  for (const ManifestComponent& c : m.components) {
+    by_id[c.id] = &c;
+    levels += c.levels.size();
+    for (const ManifestLevel& level : c.levels) level_bytes += level.bytes;
+  }
+  // A repeat's instance adds the tolerance it was accepted under.
+  for (const ManifestInstance& instance : m.instances) {
+    const ManifestComponent& c = *by_id.at(instance.component);
+    const double tolerance = instance.error_bound - c.error_bound;
+    coarsest = std::max(coarsest, (c.levels.empty() ? c.error_bound : c.levels.front().error) +
+                                      tolerance);
+    full = std::max(full, instance.error_bound);
+  }
+  for (const ManifestChunk& chunk : m.chunks) {
+    EXPECT_EQ(std::filesystem::file_size(out + "/" + chunk.file), chunk.bytes) << chunk.file;
+    chunk_bytes += chunk.bytes;
+  }
+  EXPECT_EQ(report["level_streams"].get<uint64_t>(), levels);
+  EXPECT_EQ(report["level_bytes"].get<uint64_t>(), level_bytes);
+  EXPECT_EQ(report["output_bytes"].get<uint64_t>(),
+            chunk_bytes + std::filesystem::file_size(out + "/manifest.json"));
+  test::CliRun coarse = test::run_cli("compare " + input + " " + out + " --level 0 --json");
+  ASSERT_EQ(coarse.status, 0) << coarse.err;
+  const double measured = nlohmann::json::parse(coarse.out)["symmetric"]["max"].get<double>();
+  EXPECT_LE(measured, 1.05 * coarsest);
+  EXPECT_GT(measured, 4 * full) << "level 0 is the coarse one, not the full level";
+  test::CliRun fine = test::run_cli("compare " + input + " " + out + " --json");
+  ASSERT_EQ(fine.status, 0) << fine.err;
+  EXPECT_LE(nlohmann::json::parse(fine.out)["symmetric"]["max"].get<double>(), 1.0001 * full);
 }
 
 /// The positions of the vertices on `mesh`'s border edges (edges of one triangle), as floats.
