@@ -4,6 +4,7 @@
 // Based on: the glTF 2.0 specification (Khronos, 2021): the GLB container, accessors and sparse
 // accessors with their bounds rules, node transforms (TRS = T * R * S; a negative determinant makes
 // the winding clockwise), primitive modes; and the KHR_mesh_quantization extension.
+// EXT_meshopt_compression and KHR_meshopt_compression are decoded first (io_gltf_compressed.cpp).
 // tinygltf (Debian's libtinygltf 2.7.0) parses the JSON; everything it hands back is validated
 // again here, and a few of its habits are fenced off:
 //   - the GLB container is checked before tinygltf sees it (2.7.0 forgets the BIN chunk's 8-byte
@@ -76,6 +77,8 @@ struct GlbLayout {
   size_t length = 0;  ///< the GLB's own length (<= the file size)
   size_t json_offset = 0;
   size_t json_size = 0;
+  size_t bin_offset = 0;  ///< the BIN chunk's data (bin_size 0: none)
+  size_t bin_size = 0;
 };
 
 Status check_glb(const uint8_t* data, size_t size, const std::string& source, GlbLayout* out) {
@@ -138,6 +141,8 @@ Status check_glb(const uint8_t* data, size_t size, const std::string& source, Gl
         "the BIN chunk's length " + std::to_string(bin_length) + " is not a positive multiple of 4",
         at_byte(bin_at));
   }
+  out->bin_offset = bin_at + 8;
+  out->bin_size = bin_length;
   return {};
 }
 
@@ -753,6 +758,19 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
                  at_byte(layout.json_offset + deep));
   }
 
+  // gltfpack's meshopt-compressed views decoded, and required extensions checked, before
+  // tinygltf (which refuses a meshopt fallback buffer, and a Draco primitive's accessors, with
+  // messages about byte lengths).
+  OSTEON_ASSIGN_OR_RETURN(
+      std::vector<uint8_t> plain,
+      plain_gltf(data + layout.json_offset, layout.json_size, data + layout.bin_offset,
+                 layout.bin_size, glb, source, &extension_ok));
+  if (!plain.empty()) {
+    data = plain.data();
+    size = plain.size();
+    OSTEON_RETURN_IF_ERROR(check_glb(data, size, source, &layout));
+  }
+
   FilePolicy policy;
   policy.max_bytes = options.max_file_bytes;
   if (!base_dir.empty()) {
@@ -803,7 +821,7 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
   for (const std::string& name : model.extensionsRequired) {
     if (!extension_ok(name)) {
       return error(ErrorCode::kUnsupported, source,
-                   "required extension " + name + " is not supported", "extensionsRequired");
+                   "requires " + name + ", which osteon does not read", "extensionsRequired");
     }
   }
 

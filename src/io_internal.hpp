@@ -53,6 +53,18 @@ Status parse_vtk(const uint8_t* data, size_t size, const std::string& source,
 Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
                   const std::string& base_dir, const ReadOptions& options, Scene* scene);
 
+/// The glTF that web pipelines write, made plain (src/io_gltf_compressed.cpp): when a GLB's
+/// buffer views use EXT_meshopt_compression or KHR_meshopt_compression, the same GLB with them
+/// decoded (meshoptimizer) into its BIN chunk and the extensions removed; an empty vector when
+/// nothing needs decoding. A required extension for which `readable(name)` is false (and that is
+/// not decoded here) is refused first: kUnsupported, "requires NAME, which osteon does not read".
+/// Errors name `source` and the bufferView: ranges outside the BIN chunk, strides or modes the
+/// decoders do not take, data that does not decode, more decoded bytes than the cap.
+Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_size,
+                                        const uint8_t* bin, size_t bin_size, bool glb,
+                                        const std::string& source,
+                                        bool (*readable)(const std::string&));
+
 /// Guesses the format from the first bytes (magic numbers and keywords); kUnknown if none fits.
 Format sniff_format(const uint8_t* data, size_t size);
 
