@@ -1,18 +1,32 @@
 // SPDX-License-Identifier: Apache-2.0
 // One page load in headless Chromium, measured: the network throttled and the cache disabled
 // through the DevTools protocol (on the page and on every worker it starts, so a decoder worker's
-// own requests are throttled and counted too), bytes from Network.loadingFinished, the page's
-// measurement state (window.bench on the peer pages, window.osteon in the osteon viewer), a
-// triangles-over-time series sampled on every animation frame, long tasks from a
-// PerformanceObserver registered before any page script runs, and the JS heap of the page and its
-// workers sampled every 50 ms. Also extracts the triangles a page draws, in world space, for the
-// Hausdorff check.
+// own requests are throttled and counted too), the CPU slowed for the phone profile (on the page
+// only: Chromium refuses Emulation.setCPUThrottlingRate for workers), bytes from
+// Network.loadingFinished, the page's measurement state (window.bench on the peer pages,
+// window.osteon in the osteon viewer), a triangles-over-time series sampled on every animation
+// frame (and, in a viewer with levels of detail, the largest screen-space error of a drawn bone),
+// long tasks from a PerformanceObserver registered before any page script runs, and the JS heap
+// of the page and its workers sampled every 50 ms. A load that runs past its time limit is
+// reported with what it had reached by then, not dropped. Also extracts the triangles a page
+// draws, in world space, for the Hausdorff check.
 
 import { chromium } from 'playwright-core';
 
+/// The network (and device) profiles. `label`: the tables' name, `short`: the plot's;
+/// `cpuSlowdown`: Emulation.setCPUThrottlingRate's rate; `viewport`: the window, where it is not
+/// the desktop one.
 export const kProfiles = {
-  slow: { label: '10 Mbit/s, 40 ms', latency: 40, bitsPerSecond: 10e6 },
-  fast: { label: '100 Mbit/s, 10 ms', latency: 10, bitsPerSecond: 100e6 },
+  slow: { label: '10 Mbit/s, 40 ms', short: '10 Mbit/s, 40 ms', latency: 40, bitsPerSecond: 10e6 },
+  fast: { label: '100 Mbit/s, 10 ms', short: '100 Mbit/s, 10 ms', latency: 10, bitsPerSecond: 100e6 },
+  phone: {
+    label: 'phone: 9 Mbit/s, 170 ms, CPU / 4, 390 x 844',
+    short: 'phone: 9 Mbit/s, 170 ms, CPU / 4',
+    latency: 170,
+    bitsPerSecond: 9e6,
+    cpuSlowdown: 4,
+    viewport: { width: 390, height: 844 },
+  },
 };
 
 /// Chromium's flags: WebGL through SwiftShader (there is no GPU), exact heap figures.
@@ -26,14 +40,20 @@ export const kChromiumArgs = [
 const kHeapIntervalMs = 50;
 // Long tasks are reported a little after they end; this long after the last frame they are in.
 const kSettleMs = 300;
+// A viewer with levels of detail has finished refining once it has been idle this long.
+const kIdleMs = 300;
+// The screen-space error is sampled at most this often (it walks every component).
+const kErrorSampleMs = 100;
 
 // Runs in every page before its own scripts: the long-task observer, the per-frame sampler of
-// the triangles drawn, and three.js's devtools hook, through which every THREE.Scene a page
-// creates announces itself (three.js dispatches 'observe' on window.__THREE_DEVTOOLS__ from the
-// Scene constructor), so the scene of any three.js page, the osteon viewer included, can be read
-// back without the page exporting it.
+// the triangles drawn (and of the largest screen-space error of a drawn bone, in pixels, where
+// the viewer has levels of detail: window.osteon.levelPixels(id)[levelDrawn[id]], the drawn
+// level's measured error projected at the view, over every component on screen), and three.js's
+// devtools hook, through which every THREE.Scene a page creates announces itself (three.js
+// dispatches 'observe' on window.__THREE_DEVTOOLS__ from the Scene constructor), so the scene of
+// any three.js page, the osteon viewer included, can be read back without the page exporting it.
 const kInitScript = `(() => {
-  const probe = { longTasks: [], series: [], scenes: [] };
+  const probe = { longTasks: [], series: [], errorSeries: [], scenes: [] };
   window.__benchProbe = probe;
   try {
     new PerformanceObserver((list) => {
@@ -46,10 +66,31 @@ const kInitScript = `(() => {
   hook.addEventListener('observe', (e) => { if (e.detail && e.detail.isScene) probe.scenes.push(e.detail); });
   window.__THREE_DEVTOOLS__ = hook;
   let last = -1;
+  let lastFrames = -1;
+  let lastErrorAt = -Infinity;
+  let lastError = null;
+  probe.sampleError = (now, force) => {
+    const o = window.osteon;
+    if (!o || typeof o.levelPixels !== 'function' || !o.levelDrawn) return;
+    // After each frame drawn, and until the viewer first has a value (it plans levels, and so
+    // projects their errors, once the skeleton is complete).
+    if (!force && ((o.frames === lastFrames && lastError !== null) || now - lastErrorAt < ${kErrorSampleMs})) return;
+    lastFrames = o.frames;
+    lastErrorAt = now;
+    let worst = null;
+    for (const id of Object.keys(o.levelDrawn)) {
+      const px = o.levelPixels(id);
+      const e = px && px[o.levelDrawn[id]];
+      if (Number.isFinite(e) && (worst === null || e > worst)) worst = e;
+    }
+    if (worst !== null && worst !== lastError) { probe.errorSeries.push([now, worst]); lastError = worst; }
+  };
   const sample = () => {
     const s = window.bench || window.osteon;
     const n = s && Number.isFinite(s.trianglesDrawn) ? s.trianglesDrawn : 0;
-    if (n !== last) { probe.series.push([performance.now(), n]); last = n; }
+    const now = performance.now();
+    if (n !== last) { probe.series.push([now, n]); last = n; }
+    probe.sampleError(now, false);
     requestAnimationFrame(sample);
   };
   requestAnimationFrame(sample);
@@ -59,26 +100,61 @@ export async function launchBrowser(executablePath) {
   return chromium.launch({ executablePath, headless: true, args: kChromiumArgs });
 }
 
-/// The page's measurement state in one shape: the peer pages' window.bench or the osteon
-/// viewer's window.osteon (firstComponentMs / allLoadedMs).
-const kReadState = `(() => {
+/// The page's measurement state in one shape, from the peer pages' window.bench or the osteon
+/// viewer's window.osteon. The viewer's moments are read from its levels-of-detail fields
+/// (firstFrameMs, skeletonCompleteMs, refinedMs, gpuBytes, budget, level counts) and, in a viewer
+/// without them, from the older ones (firstComponentMs, allLoadedMs), so the bench runs either
+/// way. `settled`: nothing more will change (the viewer's refineIdle, where it has one). With
+/// `full`, also the level each component is drawn at (levelDrawn).
+const readState = (full) => `(() => {
   const b = window.bench;
-  if (b) return { kind: 'bench', done: !!b.done, first: b.firstTrianglesMs, all: b.allDrawnMs,
-    triangles: b.trianglesDrawn, rendered: b.trianglesRendered, frames: b.frames, errors: (b.errors || []).map(String) };
+  if (b) return { kind: 'bench', done: !!b.done, settled: true, first: b.firstTrianglesMs, complete: b.allDrawnMs,
+    refined: b.allDrawnMs, all: b.allDrawnMs, triangles: b.trianglesDrawn, rendered: b.trianglesRendered, frames: b.frames,
+    gpuBytes: b.gpuBytes ?? null, gpuBytesPeak: b.gpuBytes ?? null, errors: (b.errors || []).map(String) };
   const o = window.osteon;
-  if (o) return { kind: 'osteon', done: !!o.done, first: o.firstComponentMs ?? null, all: o.allLoadedMs ?? null,
+  if (!o) return null;
+  const lod = 'refinedMs' in o;
+  return { kind: 'osteon', done: !!o.done, settled: 'refineIdle' in o ? !!o.refineIdle : true, lod,
+    first: o.firstFrameMs ?? o.firstComponentMs ?? null,
+    complete: 'skeletonCompleteMs' in o ? o.skeletonCompleteMs : o.allLoadedMs ?? null,
+    refined: lod ? o.refinedMs : o.allLoadedMs ?? null,
+    firstRefined: o.firstRefinedMs ?? null,
+    all: o.allLoadedMs ?? null,
     triangles: o.trianglesDrawn, errors: (o.errors || []).map((e) => String(e && e.message ? e.message : e)),
     components: o.componentsLoaded, componentsTotal: o.componentsTotal, frames: o.frames, manifestMs: o.manifestMs ?? null,
-    firstFetchMs: o.fetchLog && o.fetchLog.length ? o.fetchLog.reduce((m, e) => Math.min(m, e.fetchStart ?? Infinity), Infinity) : null };
-  return null;
+    firstFetchMs: o.fetchLog && o.fetchLog.length ? o.fetchLog.reduce((m, e) => Math.min(m, e.fetchStart ?? Infinity), Infinity) : null,
+    bytesAtSkeletonComplete: o.bytesAtSkeletonComplete ?? null,
+    gpuBytes: o.gpuBytes ?? null, gpuBytesPeak: o.gpuBytesPeak ?? o.gpuBytes ?? null, gpuTriangles: o.gpuTriangles ?? null,
+    budget: o.budget ? { bytes: o.budget.bytes ?? null, triangles: o.budget.triangles ?? null } : null,
+    maxPixelError: o.maxPixelError ?? null, levelsTotal: o.levelsTotal ?? null, levelsLoaded: o.levelsLoaded ?? null,
+    levelsFailed: o.levelsFailed ?? null, evictions: o.evictions ?? null,
+    levelDrawn: ${full ? 'o.levelDrawn ? { ...o.levelDrawn } : null' : 'undefined'} };
+})()`;
+const kReadState = readState(false);
+
+// True once the page is done and (a viewer with levels of detail) has stayed idle kIdleMs; it
+// records the moment it first saw the page done and idle as __benchProbe.endMs.
+const kFinished = `(() => {
+  const s = ${kReadState};
+  const probe = window.__benchProbe;
+  if (!s || !s.done || !s.settled) { probe.idleSince = null; return false; }
+  const now = performance.now();
+  probe.idleSince = probe.idleSince ?? now;
+  if (now - probe.idleSince < ${kIdleMs} && s.kind === 'osteon' && s.lod) return false;
+  probe.endMs = probe.idleSince;
+  return true;
 })()`;
 
 /// Speaks CDP to the page and, through Target.setAutoAttach (non-flat sessions, so Playwright's
-/// own session is left alone), to every worker: each is paused at start, gets the same cache and
-/// throttling settings, then runs.
+/// own session is left alone), to every worker: each is paused at start, gets the same cache,
+/// network and CPU settings, then runs. Returns the probe; `cpu` says where the CPU slowdown
+/// took (Emulation.setCPUThrottlingRate on the page; each worker that accepted it).
 async function instrument(context, page, profile) {
   const cdp = await context.newCDPSession(page);
-  const net = { bytes: 0, requests: 0, failed: [], urls: new Map(), transfers: [] };
+  // `inFlight`: per request still loading, the bytes received so far (Network.dataReceived), so a
+  // load stopped at its time limit counts what it had downloaded.
+  const net = { bytes: 0, requests: 0, failed: [], urls: new Map(), transfers: [], inFlight: new Map() };
+  const cpu = { rate: profile?.cpuSlowdown ?? 1, page: null, workersAccepted: 0, workersRefused: 0, workerError: null };
   const workers = new Map(); // sessionId -> pending replies
   let nextId = 1;
 
@@ -92,30 +168,40 @@ async function instrument(context, page, profile) {
       offline: false, latency: profile.latency, downloadThroughput: bytesPerSecond, uploadThroughput: bytesPerSecond,
     }]);
   }
+  const cpuSetting = cpu.rate > 1 ? ['Emulation.setCPUThrottlingRate', { rate: cpu.rate }] : null;
   // Request ids are unique per target, so each is keyed with its session ('' for the page).
   const onNetwork = (method, params, session = '') => {
     const key = `${session}:${params.requestId}`;
     if (method === 'Network.requestWillBeSent') {
       net.urls.set(key, params.request.url);
+    } else if (method === 'Network.dataReceived') {
+      net.inFlight.set(key, (net.inFlight.get(key) ?? 0) + Math.max(0, params.encodedDataLength ?? 0));
     } else if (method === 'Network.loadingFinished') {
+      net.inFlight.delete(key);
       // A worker started from a blob: URL reports -1: nothing came over the network.
       const bytes = Math.max(0, params.encodedDataLength);
       if (bytes === 0) return;
       net.bytes += bytes;
       net.requests += 1;
       net.transfers.push([new URL(net.urls.get(key) ?? 'unknown:', 'http://x/').pathname, bytes, session ? 'worker' : 'page']);
-    } else if (method === 'Network.loadingFailed' && !params.canceled) {
-      net.failed.push(`${net.urls.get(key) ?? params.requestId}: ${params.errorText}`);
+    } else if (method === 'Network.loadingFailed') {
+      net.inFlight.delete(key);
+      if (!params.canceled) net.failed.push(`${net.urls.get(key) ?? params.requestId}: ${params.errorText}`);
     }
   };
-  for (const method of ['Network.requestWillBeSent', 'Network.loadingFinished', 'Network.loadingFailed']) {
+  for (const method of ['Network.requestWillBeSent', 'Network.dataReceived', 'Network.loadingFinished', 'Network.loadingFailed']) {
     cdp.on(method, (p) => onNetwork(method, p));
   }
 
-  const sendToWorker = (sessionId, method, params = {}) => {
+  // Resolves with the reply's result, or null when the target answered with an error or is gone
+  // (the error's message goes to `onError`).
+  const sendToWorker = (sessionId, method, params = {}, onError = () => {}) => {
     const id = nextId++;
     const pending = workers.get(sessionId);
-    const reply = new Promise((resolve) => pending?.set(id, resolve));
+    const reply = new Promise((resolve) => pending?.set(id, (result, error) => {
+      if (error) onError(error.message ?? JSON.stringify(error));
+      resolve(result);
+    }));
     cdp.send('Target.sendMessageToTarget', { sessionId, message: JSON.stringify({ id, method, params }) }).catch(() => {
       pending?.get(id)?.(null);
     });
@@ -124,6 +210,13 @@ async function instrument(context, page, profile) {
   cdp.on('Target.attachedToTarget', async (e) => {
     workers.set(e.sessionId, new Map());
     for (const [method, params] of settings) await sendToWorker(e.sessionId, method, params);
+    if (cpuSetting) {
+      // Chromium answers "Operation is only supported for pages, not workers": the slowdown
+      // reaches the page's main thread only, which the report says.
+      const ok = await sendToWorker(e.sessionId, ...cpuSetting, (message) => { cpu.workerError ??= message; });
+      if (ok) cpu.workersAccepted += 1;
+      else cpu.workersRefused += 1;
+    }
     if (e.targetInfo.type === 'worker') await sendToWorker(e.sessionId, 'Runtime.evaluate', { expression: kWorkerInitScript });
     await sendToWorker(e.sessionId, 'Runtime.runIfWaitingForDebugger');
   });
@@ -139,7 +232,7 @@ async function instrument(context, page, profile) {
       const resolve = pending?.get(message.id);
       if (resolve) {
         pending.delete(message.id);
-        resolve(message.error ? null : message.result);
+        resolve(message.error ? null : message.result, message.error);
       }
     } else if (message.method) {
       onNetwork(message.method, message.params, e.sessionId);
@@ -147,6 +240,9 @@ async function instrument(context, page, profile) {
   });
 
   for (const [method, params] of settings) await cdp.send(method, params);
+  if (cpuSetting) {
+    cpu.page = await cdp.send(...cpuSetting).then(() => true, () => false);
+  }
   await cdp.send('Target.setAutoAttach', { autoAttach: true, waitForDebuggerOnStart: true, flatten: false });
 
   // Heap: V8's used heap plus ArrayBuffer / WebAssembly memory backing stores (where decoded
@@ -174,6 +270,7 @@ async function instrument(context, page, profile) {
     cdp,
     net,
     heap,
+    cpu,
     stop: () => clearInterval(timer),
     workerSessions: () => [...workers.keys()],
     /// Evaluates `expression` in a worker; resolves with its value (JSON), rejects on an exception.
@@ -187,9 +284,13 @@ async function instrument(context, page, profile) {
 }
 
 /// Loads `url` once under `profile` (null: unthrottled) in a fresh context and measures it.
-/// Returns { firstMs, allMs, trianglesDrawn, bytes, requests, tbtMs, longTasks, peakHeapBytes,
-/// series, errors, state } or throws on a timeout. With `extract`, also returns the drawn
-/// triangles ({ positions: Float32Array, indices: Uint32Array }) in `drawn`.
+/// Returns { firstMs, completeMs, refinedMs, allMs, finished, timedOut, trianglesDrawn, bytes,
+/// requests, tbtMs, longestTaskMs, longTasks, peakHeapBytes, gpuBytes, series, errorSeries,
+/// errors, state, ... }. Moments are ms from navigation start; one the page did not reach is null.
+/// A load still running at `timeoutMs` is stopped and returned with `timedOut` set and what it
+/// had reached by then (its first frame, say); an uncaught exception or a page error ends it
+/// with `errors`. With `extract`, also returns the drawn triangles ({ positions: Float32Array,
+/// indices: Uint32Array }) in `drawn`.
 export async function measureLoad(browser, url, { profile, viewport, timeoutMs, extract = false }) {
   const context = await browser.newContext({ viewport, deviceScaleFactor: 1 });
   try {
@@ -210,13 +311,13 @@ export async function measureLoad(browser, url, { profile, viewport, timeoutMs, 
       if (m.type() === 'error') consoleErrors.push(m.text());
     });
     const probe = await instrument(context, page, profile);
+    let timedOut = false;
+    let failure = null;
+    const started = Date.now();
     try {
       await page.goto(url, { waitUntil: 'commit', timeout: timeoutMs });
       await Promise.race([
-        page.waitForFunction(`(() => { const s = ${kReadState}; return s && s.done; })()`, null, {
-          timeout: timeoutMs,
-          polling: 100,
-        }),
+        page.waitForFunction(kFinished, null, { timeout: Math.max(1, timeoutMs - (Date.now() - started)), polling: 100 }),
         uncaught,
       ]);
       // Two more frames, so the sampler has seen the last change drawn; then the long tasks
@@ -224,55 +325,115 @@ export async function measureLoad(browser, url, { profile, viewport, timeoutMs, 
       await page.evaluate(() => new Promise((resolve) => requestAnimationFrame(() => requestAnimationFrame(resolve))));
       await page.waitForTimeout(kSettleMs);
     } catch (e) {
-      const state = await page.evaluate(kReadState).catch(() => null);
-      throw new Error(`${url}: ${e.message.split('\n')[0]}; state ${JSON.stringify(state)}; page errors: ${consoleErrors.slice(0, 3).join(' | ') || 'none'}`);
+      if (/Timeout/i.test(e.name) || /Timeout \d+ms exceeded/.test(e.message)) {
+        timedOut = true;
+      } else {
+        const state = await page.evaluate(kReadState).catch(() => null);
+        failure = `${url}: ${e.message.split('\n')[0]}; state ${JSON.stringify(state)}; page errors: ${consoleErrors.slice(0, 3).join(' | ') || 'none'}`;
+      }
     } finally {
       probe.stop();
     }
-    const state = await page.evaluate(kReadState);
-    const { longTasks, series } = await page.evaluate(() => ({
-      longTasks: window.__benchProbe.longTasks,
-      series: window.__benchProbe.series,
-    }));
-    const errors = [...state.errors, ...probe.net.failed.map((e) => `request failed: ${e}`)];
-    // On screen: the first animation frame whose scene held a triangle, and the first that held
-    // them all (the sampler runs at the start of each frame, before the page's own render in it).
+    // What the requests still loading had received (a load stopped at its limit).
+    const inFlightBytes = [...probe.net.inFlight.values()].reduce((a, b) => a + b, 0);
+    if (failure) throw new Error(failure);
+    // A page too busy to answer within a few seconds more is reported as it was at the limit.
+    const evaluate = (expr) => Promise.race([page.evaluate(expr), new Promise((_, reject) => setTimeout(() => reject(new Error('the page did not answer')), 15000))]);
+    const state = await evaluate(readState(true)).catch(() => null);
+    const sampled = await evaluate(`(() => {
+      const p = window.__benchProbe;
+      p.sampleError(performance.now(), true);
+      return { longTasks: p.longTasks, series: p.series, errorSeries: p.errorSeries, endMs: p.endMs ?? null, now: performance.now(), observerError: p.observerError ?? null };
+    })()`).catch(() => ({ longTasks: [], series: [], errorSeries: [], endMs: null, now: null }));
+    if (!state && !timedOut) throw new Error(`${url}: the page has no window.bench or window.osteon`);
+    const s = state ?? { errors: [], triangles: 0 };
+    const { longTasks, series, errorSeries } = sampled;
+    const errors = [...(s.errors ?? []), ...probe.net.failed.map((e) => `request failed: ${e}`)];
+    // The moments are the page's own: when the frame that drew them had been rendered
+    // (window.bench: renderer.render() returned; the viewer: its render worker's frame, on the
+    // page's clock), so a frame the page's main thread learns of late is not counted late. The
+    // sampler's series (the first animation frame whose count held a triangle, and, for a load
+    // that finished, the first that held them all) is the fallback and what the plot shows.
+    const finished = !timedOut && !!s.done;
     const firstFrame = series.find(([, n]) => n > 0);
-    const allFrame = series.find(([, n]) => n >= state.triangles && n > 0);
-    const allMs = allFrame ? allFrame[0] : null;
-    // Total blocking time: the part beyond 50 ms of every long task that started before
-    // everything was on screen (from navigation start).
+    const allFrame = finished ? series.find(([, n]) => n >= s.triangles && n > 0) : null;
+    const sampledFirstMs = firstFrame ? firstFrame[0] : null;
+    const sampledAllMs = allFrame ? allFrame[0] : null;
+    // Peers: every bone is drawn, at its only level, when everything is. The viewer: its own
+    // moments (skeleton complete: every bone at some level; refined: every visible bone within
+    // its pixel error or at its finest level); its "all drawn" is the sampled last change.
+    const peer = s.kind === 'bench';
+    const firstMs = s.first ?? sampledFirstMs;
+    const allMs = peer ? (finished ? s.all ?? sampledAllMs : null) : sampledAllMs;
+    const completeMs = peer ? allMs : s.complete ?? null;
+    const refinedMs = peer ? allMs : s.refined ?? null;
+    // Total blocking time: the part beyond 50 ms of every long task that started before the load
+    // ended (all drawn; the viewer: refined or idle; else the time limit), from navigation start.
+    const end = finished ? Math.max(allMs ?? 0, completeMs ?? 0, refinedMs ?? 0, sampled.endMs ?? 0) : Infinity;
     let tbt = 0;
-    for (const [start, duration] of longTasks) if (start <= (allMs ?? Infinity)) tbt += Math.max(0, duration - 50);
+    let longest = 0;
+    let counted = 0;
+    for (const [start, duration] of longTasks) {
+      if (start > end) continue;
+      tbt += Math.max(0, duration - 50);
+      longest = Math.max(longest, duration);
+      counted += 1;
+    }
     const result = {
-      firstMs: firstFrame ? firstFrame[0] : null,
+      finished,
+      timedOut,
+      timeLimitMs: timeoutMs,
+      firstMs,
+      completeMs,
+      refinedMs,
       allMs,
-      pageFirstMs: state.first,
-      pageAllMs: state.all,
-      trianglesDrawn: state.triangles,
-      trianglesRendered: state.rendered ?? null,
-      frames: state.frames ?? null,
-      manifestMs: state.manifestMs ?? null,
-      firstFetchMs: Number.isFinite(state.firstFetchMs) ? state.firstFetchMs : null,
-      bytes: probe.net.bytes,
+      sampledFirstMs,
+      sampledAllMs,
+      pageFirstMs: s.first ?? null,
+      pageCompleteMs: s.complete ?? null,
+      pageRefinedMs: s.refined ?? null,
+      pageAllMs: s.all ?? null,
+      firstRefinedMs: s.firstRefined ?? null,
+      hasLevels: !!s.lod,
+      trianglesDrawn: s.triangles ?? 0,
+      trianglesRendered: s.rendered ?? null,
+      frames: s.frames ?? null,
+      manifestMs: s.manifestMs ?? null,
+      firstFetchMs: Number.isFinite(s.firstFetchMs) ? s.firstFetchMs : null,
+      bytesAtSkeletonComplete: s.bytesAtSkeletonComplete ?? null,
+      bytes: probe.net.bytes + (timedOut ? inFlightBytes : 0),
+      inFlightBytes,
       requests: probe.net.requests,
       transfers: probe.net.transfers,
       tbtMs: tbt,
-      longTasks: longTasks.length,
+      longestTaskMs: longest,
+      longTasks: counted,
+      longTaskObserverError: sampled.observerError ?? null,
       peakHeapBytes: probe.heap.peak,
       heapSamples: probe.heap.samples,
+      gpuBytes: s.gpuBytes ?? null,
+      gpuBytesPeak: s.gpuBytesPeak ?? null,
+      gpuTriangles: s.gpuTriangles ?? null,
+      budget: s.budget ?? null,
+      maxPixelError: s.maxPixelError ?? null,
+      levelsTotal: s.levelsTotal ?? null,
+      levelsLoaded: s.levelsLoaded ?? null,
+      levelsFailed: s.levelsFailed ?? null,
+      evictions: s.evictions ?? null,
+      levelDrawn: s.levelDrawn ?? null,
+      cpu: probe.cpu,
       series,
+      errorSeries,
       errors,
-      state,
+      state: state ? { ...state, levelDrawn: undefined } : null,
     };
-    if (extract) result.drawn = await extractDrawn(page, probe);
+    if (extract && finished) result.drawn = await extractDrawn(page, probe);
     return result;
   } finally {
     await context.close();
   }
 }
 
-/// The canvas size of a page (the osteon viewer's: every peer page is given the same size).
 export async function canvasSize(browser, url, viewport, timeoutMs) {
   const context = await browser.newContext({ viewport, deviceScaleFactor: 1 });
   try {

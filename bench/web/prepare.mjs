@@ -8,7 +8,11 @@
 //                              normals), then `gltf-transform draco --quantize-position 14
 //                              --quantization-volume scene`; DRACOLoader's decoder files; the page
 //   site/<dataset>/gltfpack/   scene.glb: `gltfpack -i merged.glb -o scene.glb -cc -mi`; the page
+//   site/<dataset>/gltfpack-cz/  the same with -cz (KHR_meshopt_compression, meshoptimizer 1.x's
+//                              newer codec, which npm three's MeshoptDecoder, built from
+//                              meshoptimizer 1.1, decodes); the same page
 //   site/<dataset>/osteon/     `osteon pack FOLDER --precision E --viewer build/viewer [--names F]`
+//                              (the dense skeleton: its label volume, with --surface-voxels 0)
 //
 // E, osteon's largest coordinate error, is half of Draco's 14-bit grid step over the merged scene
 // (--quantization-volume scene: one grid of (2^14 - 1) steps over the scene box's largest side;
@@ -204,10 +208,15 @@ function osteonViewerMissing(osteon, viewer) {
   return null;
 }
 
-/// Prepares one dataset. Returns { id, siteDir, ways: { <way>: { path, servedBytes } | { skipped } },
-/// bounds, largestSide, precision, gridStep, triangles, merged }.
+/// Prepares one dataset. Returns { id, siteDir, ways: { <way>: { path, servedBytes, errorBound }
+/// | { skipped } }, bounds, largestSide, precision, gridStep, triangles, merged }. A way's
+/// `errorBound` is how far its quantization may move a vertex (the peers' grids: sqrt(3)/2 steps;
+/// direct: 0; osteon: the manifest's largest at full resolution), in the dataset's unit; the
+/// osteon way also gives `manifest`, the package's manifest.json.
 export async function prepareDataset(dataset, options) {
   const { outDir, osteon, viewer, fresh, log } = options;
+  // Only the ways asked for are built (all when options.ways is absent).
+  const want = (way) => !options.ways || options.ways.includes(way);
   const work = path.join(outDir, 'work', dataset.id);
   const site = path.join(outDir, 'site', dataset.id);
   const stamps = path.join(work, 'stamps');
@@ -233,96 +242,121 @@ export async function prepareDataset(dataset, options) {
   const pageKey = signature([bundles, path.join(here, 'pages', 'page.html'), fileURLToPath(import.meta.url)]);
 
   const ways = {};
-  // direct: the original files.
-  const direct = path.join(site, 'direct');
-  await step(stamps, 'direct', { inputs, pageKey }, [path.join(direct, 'index.html')], () => {
-    emptyDir(direct);
-    fs.mkdirSync(path.join(direct, 'files'));
-    const urls = [];
-    for (const file of dataset.files) {
-      const name = path.basename(file);
-      fs.copyFileSync(file, path.join(direct, 'files', name));
-      urls.push(`files/${encodeURIComponent(name)}`);
-    }
-    fs.writeFileSync(path.join(direct, 'parts.json'), JSON.stringify(urls));
-    const script = dataset.format === 'glb' ? 'direct_gltf.js' : 'direct_stl.js';
-    fs.copyFileSync(path.join(bundles, script), path.join(direct, script));
-    writePage(direct, `direct (${dataset.format === 'glb' ? 'GLTFLoader' : 'STLLoader'}) - bench/web`, script, ['parts.json']);
-    precompress(direct);
-  }, log);
-  ways.direct = { path: 'direct/', servedBytes: servedBytes(direct) };
+  if (want('direct')) {
+    // direct: the original files.
+    const direct = path.join(site, 'direct');
+    await step(stamps, 'direct', { inputs, pageKey }, [path.join(direct, 'index.html')], () => {
+      emptyDir(direct);
+      fs.mkdirSync(path.join(direct, 'files'));
+      const urls = [];
+      for (const file of dataset.files) {
+        const name = path.basename(file);
+        fs.copyFileSync(file, path.join(direct, 'files', name));
+        urls.push(`files/${encodeURIComponent(name)}`);
+      }
+      fs.writeFileSync(path.join(direct, 'parts.json'), JSON.stringify(urls));
+      const script = dataset.format === 'glb' ? 'direct_gltf.js' : 'direct_stl.js';
+      fs.copyFileSync(path.join(bundles, script), path.join(direct, script));
+      writePage(direct, `direct (${dataset.format === 'glb' ? 'GLTFLoader' : 'STLLoader'}) - bench/web`, script, ['parts.json']);
+      precompress(direct);
+    }, log);
+    ways.direct = { path: 'direct/', servedBytes: servedBytes(direct), errorBound: 0 };
+  }
 
   // The parts as one GLB: the input of both glTF compressors.
   const merged = path.join(work, 'merged.glb');
   const gltfTransform = path.join(modules, '.bin', 'gltf-transform');
-  await step(stamps, 'merged', { inputs, tools }, [merged], async () => {
-    if (dataset.format === 'glb') {
-      run(gltfTransform, ['merge', ...dataset.files, merged, '--merge-scenes']);
-    } else {
-      await stlToGlb(dataset.files, merged);
-    }
-  }, log);
-
-  const draco = path.join(site, 'draco');
-  await step(stamps, 'draco', { inputs, tools, pageKey, bits: kPositionBits }, [path.join(draco, 'scene.glb')], () => {
-    emptyDir(draco);
-    run(gltfTransform, ['draco', merged, path.join(draco, 'scene.glb'), '--quantize-position', String(kPositionBits),
-      '--quantization-volume', 'scene']);
-    const decoder = path.join(modules, 'three', 'examples', 'jsm', 'libs', 'draco', 'gltf');
-    fs.mkdirSync(path.join(draco, 'draco'));
-    for (const name of ['draco_wasm_wrapper.js', 'draco_decoder.wasm']) {
-      fs.copyFileSync(path.join(decoder, name), path.join(draco, 'draco', name));
-    }
-    fs.copyFileSync(path.join(bundles, 'draco.js'), path.join(draco, 'draco.js'));
-    writePage(draco, 'Draco glTF (GLTFLoader + DRACOLoader) - bench/web', 'draco.js',
-      ['scene.glb', 'draco/draco_wasm_wrapper.js', 'draco/draco_decoder.wasm']);
-    precompress(draco);
-  }, log);
-  ways.draco = { path: 'draco/', servedBytes: servedBytes(draco) };
-
-  const gltfpack = path.join(site, 'gltfpack');
-  await step(stamps, 'gltfpack', { inputs, tools, pageKey }, [path.join(gltfpack, 'scene.glb')], () => {
-    emptyDir(gltfpack);
-    run(process.execPath, [path.join(modules, 'gltfpack', 'cli.js'), '-i', merged, '-o', path.join(gltfpack, 'scene.glb'), '-cc', '-mi']);
-    fs.copyFileSync(path.join(bundles, 'gltfpack.js'), path.join(gltfpack, 'gltfpack.js'));
-    writePage(gltfpack, 'gltfpack (GLTFLoader + MeshoptDecoder) - bench/web', 'gltfpack.js', ['scene.glb']);
-    precompress(gltfpack);
-  }, log);
-  ways.gltfpack = { path: 'gltfpack/', servedBytes: servedBytes(gltfpack), gridStep: gltfpackStep(path.join(gltfpack, 'scene.glb')) };
-
-  const packDir = path.join(site, 'osteon');
-  const missing = osteonViewerMissing(osteon, viewer);
-  if (missing) {
-    ways.osteon = { skipped: missing };
-    log(`  osteon: skipped: ${missing}`);
-  } else {
-    // A repeated bone is drawn from its prototype within the repeat tolerance, on top of the
-    // codec's bound (docs/FORMAT.md: an instance's error_bound). When the default tolerance (the
-    // codec's bound) takes osteon past Draco's bound, sqrt(3)/2 grid steps, the budget is split:
-    // 80% to the codec, the rest to the repeats, so no drawn vertex can be further off than
-    // Draco's.
-    const dracoBound = (Math.sqrt(3) / 2) * gridStep;
-    const argsFile = path.join(work, 'osteon_args.json');
-    const base = ['pack', dataset.folder, '-o', packDir, '--viewer', viewer, ...(dataset.names ? ['--names', dataset.names] : [])];
-    await step(stamps, 'osteon', { inputs, osteonSig, viewer: signature([viewer]), base, precision }, [path.join(packDir, 'manifest.json'), argsFile], () => {
-      const pack = (extra) => {
-        emptyDir(packDir);
-        run(osteon, [...base, ...extra]);
-        const manifest = JSON.parse(fs.readFileSync(path.join(packDir, 'manifest.json'), 'utf8'));
-        return Math.max(...manifest.instances.map((i) => i.error_bound), ...manifest.components.map((c) => c.error_bound));
-      };
-      let extra = ['--precision', String(precision)];
-      let bound = pack(extra);
-      if (bound > dracoBound * (1 + 1e-6)) {
-        log(`  osteon: error bound ${bound.toPrecision(4)} with repeats > Draco's ${dracoBound.toPrecision(4)}: repacking with 80% to the codec`);
-        extra = ['--precision', String(precision * 0.8), '--repeat-tolerance', String(dracoBound * 0.2 * 0.999)];
-        bound = pack(extra);
+  if (want('draco') || want('gltfpack') || want('gltfpack-cz')) {
+    await step(stamps, 'merged', { inputs, tools }, [merged], async () => {
+      if (dataset.format === 'glb') {
+        run(gltfTransform, ['merge', ...dataset.files, merged, '--merge-scenes']);
+      } else {
+        await stlToGlb(dataset.files, merged);
       }
-      precompress(packDir);
-      fs.writeFileSync(argsFile, JSON.stringify({ args: [...base, ...extra], bound, dracoBound }));
     }, log);
-    const packed = JSON.parse(fs.readFileSync(argsFile, 'utf8'));
-    ways.osteon = { path: 'osteon/', servedBytes: servedBytes(packDir), packArgs: packed.args, errorBound: packed.bound };
+  }
+
+  if (want('draco')) {
+    const draco = path.join(site, 'draco');
+    await step(stamps, 'draco', { inputs, tools, pageKey, bits: kPositionBits }, [path.join(draco, 'scene.glb')], () => {
+      emptyDir(draco);
+      run(gltfTransform, ['draco', merged, path.join(draco, 'scene.glb'), '--quantize-position', String(kPositionBits),
+        '--quantization-volume', 'scene']);
+      const decoder = path.join(modules, 'three', 'examples', 'jsm', 'libs', 'draco', 'gltf');
+      fs.mkdirSync(path.join(draco, 'draco'));
+      for (const name of ['draco_wasm_wrapper.js', 'draco_decoder.wasm']) {
+        fs.copyFileSync(path.join(decoder, name), path.join(draco, 'draco', name));
+      }
+      fs.copyFileSync(path.join(bundles, 'draco.js'), path.join(draco, 'draco.js'));
+      writePage(draco, 'Draco glTF (GLTFLoader + DRACOLoader) - bench/web', 'draco.js',
+        ['scene.glb', 'draco/draco_wasm_wrapper.js', 'draco/draco_decoder.wasm']);
+      precompress(draco);
+    }, log);
+    ways.draco = { path: 'draco/', servedBytes: servedBytes(draco), errorBound: (Math.sqrt(3) / 2) * gridStep };
+  }
+
+  // gltfpack, twice: -cc (EXT_meshopt_compression) and -cz (KHR_meshopt_compression).
+  for (const [way, flag] of [['gltfpack', '-cc'], ['gltfpack-cz', '-cz']]) {
+    if (!want(way)) continue;
+    const dir = path.join(site, way);
+    await step(stamps, way, { inputs, tools, pageKey, flag }, [path.join(dir, 'scene.glb')], () => {
+      emptyDir(dir);
+      run(process.execPath, [path.join(modules, 'gltfpack', 'cli.js'), '-i', merged, '-o', path.join(dir, 'scene.glb'), flag, '-mi']);
+      fs.copyFileSync(path.join(bundles, 'gltfpack.js'), path.join(dir, 'gltfpack.js'));
+      writePage(dir, `gltfpack ${flag} (GLTFLoader + MeshoptDecoder) - bench/web`, 'gltfpack.js', ['scene.glb']);
+      precompress(dir);
+    }, log);
+    const step_ = gltfpackStep(path.join(dir, 'scene.glb'));
+    ways[way] = { path: `${way}/`, servedBytes: servedBytes(dir), gridStep: step_, errorBound: (Math.sqrt(3) / 2) * step_ };
+  }
+
+  if (want('osteon')) {
+    const packDir = path.join(site, 'osteon');
+    const missing = osteonViewerMissing(osteon, viewer);
+    if (missing) {
+      ways.osteon = { skipped: missing };
+      log(`  osteon: skipped: ${missing}`);
+    } else {
+      // A repeated bone is drawn from its prototype within the repeat tolerance, on top of the
+      // codec's bound (docs/FORMAT.md: an instance's error_bound). When the default tolerance (the
+      // codec's bound) takes osteon past Draco's bound, sqrt(3)/2 grid steps, the budget is split:
+      // 80% to the codec, the rest to the repeats, so no drawn vertex can be further off than
+      // Draco's.
+      const dracoBound = (Math.sqrt(3) / 2) * gridStep;
+      const argsFile = path.join(work, 'osteon_args.json');
+      const inputsPacked = dataset.pack?.inputs ?? [dataset.folder];
+      // The data are packed with --no-viewer and the viewer's files copied in by a step of their
+      // own (what --viewer does: every file of the folder, relative paths kept), so a rebuilt
+      // viewer does not repack the data (the dense skeleton's pack takes minutes).
+      const base = ['pack', ...inputsPacked, '-o', packDir, '--no-viewer', ...(dataset.pack?.extra ?? []),
+        ...(dataset.names ? ['--names', dataset.names] : [])];
+      await step(stamps, 'osteon', { inputs: dataset.pack ? signature(inputsPacked) : inputs, osteonSig, base, precision }, [path.join(packDir, 'manifest.json'), argsFile], () => {
+        const pack = (extra) => {
+          emptyDir(packDir);
+          run(osteon, [...base, ...extra]);
+          const manifest = JSON.parse(fs.readFileSync(path.join(packDir, 'manifest.json'), 'utf8'));
+          return Math.max(...manifest.instances.map((i) => i.error_bound), ...manifest.components.map((c) => c.error_bound));
+        };
+        let extra = ['--precision', String(precision)];
+        let bound = pack(extra);
+        if (bound > dracoBound * (1 + 1e-6)) {
+          log(`  osteon: error bound ${bound.toPrecision(4)} with repeats > Draco's ${dracoBound.toPrecision(4)}: repacking with 80% to the codec`);
+          extra = ['--precision', String(precision * 0.8), '--repeat-tolerance', String(dracoBound * 0.2 * 0.999)];
+          bound = pack(extra);
+        }
+        fs.writeFileSync(argsFile, JSON.stringify({ args: [...base, ...extra], bound, dracoBound }));
+      }, log);
+      await step(stamps, 'osteon-viewer', { viewer: signature([viewer]), packed: signature([argsFile]) }, [path.join(packDir, 'index.html')], () => {
+        for (const entry of fs.readdirSync(packDir)) {
+          if (!['manifest.json', 'manifest.json.gz', 'c'].includes(entry)) fs.rmSync(path.join(packDir, entry), { recursive: true, force: true });
+        }
+        fs.cpSync(viewer, packDir, { recursive: true });
+        precompress(packDir);
+      }, log);
+      const packed = JSON.parse(fs.readFileSync(argsFile, 'utf8'));
+      ways.osteon = { path: 'osteon/', servedBytes: servedBytes(packDir), packArgs: packed.args, errorBound: packed.bound,
+        manifest: path.join(packDir, 'manifest.json'), viewer };
+    }
   }
 
   return {

@@ -2,10 +2,11 @@
 # SPDX-License-Identifier: Apache-2.0
 # bench/web in one command: installs bench/web's npm packages (npm ci, pinned by package-lock.json;
 # no browser is downloaded: Debian's /usr/bin/chromium is used), makes sure the osteon CLI and the
-# viewer are built, then runs load_bench.mjs, which prepares the four ways into build/bench-web/,
-# measures them in headless Chromium and writes the "Browser load time (bench/web)" section of
-# docs/BENCHMARKS.md and docs/load_time.svg. Arguments go to load_bench.mjs (--help lists them;
-# --runs 1 for a quick check, --no-write to print only).
+# viewer are built, then runs load_bench.mjs, which prepares the five ways (and, once, the dense
+# skeleton) into build/bench-web/, measures them in headless Chromium under three profiles and,
+# after a complete run, writes the "Browser load time (bench/web)" section of docs/BENCHMARKS.md
+# and docs/load_time.svg. Arguments go to load_bench.mjs (--help lists them; --runs 1 for a quick
+# check, --no-write to print only, --prepare-only to build the cache).
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)

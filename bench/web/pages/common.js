@@ -11,7 +11,7 @@
 // component as drawn once the frame that drew it has been rendered):
 //
 //   window.bench = { trianglesDrawn, firstTrianglesMs, allDrawnMs, trianglesRendered, frames,
-//                    done, errors }
+//                    gpuBytes, done, errors }
 //
 // trianglesDrawn: the triangles in the scene (instances counted) when the last frame was rendered,
 // set right after renderer.render() returns (so a first frame's shader compilation counts, as it
@@ -20,7 +20,9 @@
 // performance.now() (ms from navigation start) after the first frame with a triangle and after the
 // first frame with all of them once every file had loaded (the viewer's firstComponentMs and
 // allLoadedMs); kept in the benchmark's JSON. trianglesRendered: three.js's count for that frame
-// (renderer.info), a check on trianglesDrawn.
+// (renderer.info), a check on trianglesDrawn. gpuBytes: once everything is drawn, the byte lengths
+// of the geometry buffers the scene's meshes upload (vertex attributes, each interleaved buffer
+// once; indices; instance matrices), what the viewer's window.osteon.gpuBytes counts for its own.
 //
 // The canvas size comes from the page's URL (?w=&h=): the benchmark gives every way the size of
 // the osteon viewer's canvas.
@@ -49,6 +51,7 @@ export const bench = {
   trianglesDrawn: 0,
   trianglesRendered: 0,
   frames: 0,
+  gpuBytes: null,
   done: false,
   errors: [],
 };
@@ -84,6 +87,27 @@ function fitCamera(camera, box) {
   camera.far = radius * 60;
   camera.lookAt(target);
   camera.updateProjectionMatrix();
+}
+
+/// The bytes of the geometry buffers `scene`'s meshes draw from, each array counted once.
+function geometryBytes(scene) {
+  const arrays = new Set();
+  const add = (attribute) => {
+    if (!attribute) return;
+    arrays.add(attribute.isInterleavedBufferAttribute ? attribute.data.array : attribute.array);
+  };
+  scene.traverse((o) => {
+    if (!o.isMesh || !o.geometry) return;
+    for (const attribute of Object.values(o.geometry.attributes)) add(attribute);
+    add(o.geometry.index);
+    if (o.isInstancedMesh) {
+      add(o.instanceMatrix);
+      add(o.instanceColor);
+    }
+  });
+  let bytes = 0;
+  for (const a of arrays) bytes += a.byteLength;
+  return bytes;
 }
 
 /// Records an error (shown on the page and reported by the benchmark) and ends the measurement.
@@ -154,6 +178,7 @@ export function createView() {
       bench.frames += 1;
       if (drawing > 0) bench.firstTrianglesMs ??= now;
       if (all && !bench.done) {
+        bench.gpuBytes = geometryBytes(scene);
         bench.allDrawnMs = now;
         bench.done = true;
       }
