@@ -4,7 +4,8 @@
 // Based on: the glTF 2.0 specification (Khronos, 2021): the GLB container, accessors and sparse
 // accessors with their bounds rules, node transforms (TRS = T * R * S; a negative determinant makes
 // the winding clockwise), primitive modes; and the KHR_mesh_quantization extension.
-// EXT_meshopt_compression and KHR_meshopt_compression are decoded first (io_gltf_compressed.cpp).
+// EXT_meshopt_compression, KHR_meshopt_compression and KHR_draco_mesh_compression are decoded
+// first (io_gltf_compressed.cpp).
 // tinygltf (Debian's libtinygltf 2.7.0) parses the JSON; everything it hands back is validated
 // again here, and a few of its habits are fenced off:
 //   - the GLB container is checked before tinygltf sees it (2.7.0 forgets the BIN chunk's 8-byte

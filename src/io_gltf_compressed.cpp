@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // The glTF that web pipelines write, made plain before the glTF reader sees it: gltfpack's
 // EXT_meshopt_compression and KHR_meshopt_compression buffer views are decoded with Debian's
-// meshoptimizer (its decoders and filters), and a required extension osteon cannot decode is
-// refused by name before tinygltf fails on the data it cannot see.
+// meshoptimizer (its decoders and filters), KHR_draco_mesh_compression primitives (gltf-transform
+// draco, Blender's exporter) with Debian's libdraco, and a required extension osteon cannot
+// decode is refused by name before tinygltf fails on the data it cannot see.
 //
 // Based on: the EXT_meshopt_compression and KHR_meshopt_compression specifications (Khronos glTF
-// registry): a compressed bufferView names its source buffer, range, element stride, count, mode
+// registry), and KHR_draco_mesh_compression's (a primitive names the bufferView of its Draco
+// stream and the Draco attribute id of each glTF attribute; its accessors keep count and type but
+// may lose their bufferView): a compressed bufferView names its source buffer, range, element stride, count, mode
 // (ATTRIBUTES, TRIANGLES, INDICES) and filter (NONE, OCTAHEDRAL, QUATERNION, EXPONENTIAL); the
 // file's own `buffer` of such a view is a fallback that may hold no data (in a GLB, a buffer with
 // a byteLength and no bytes, which is what tinygltf refuses).
@@ -17,6 +20,7 @@
 // decoders take), and the decoded bytes are capped at kMaxExpansion times the compressed ones
 // plus a floor, so a small file cannot ask for terabytes.
 
+#include <draco/compression/decode.h>
 #include <meshoptimizer.h>
 
 #include <algorithm>
@@ -168,6 +172,153 @@ Status decode_view(const json& m, size_t k, const uint8_t* bin, size_t bin_size,
   return {};
 }
 
+constexpr const char* kDraco = "KHR_draco_mesh_compression";
+
+/// The Draco extension object of a primitive, or null.
+const json* draco_of(const json& primitive) {
+  const auto ext = primitive.find("extensions");
+  if (ext == primitive.end() || !ext->is_object()) return nullptr;
+  const auto it = ext->find(kDraco);
+  return it != ext->end() && it->is_object() ? &*it : nullptr;
+}
+
+/// The bytes of bufferView `k` inside the BIN chunk (uncompressed views only).
+Status view_bytes(const json& doc, uint64_t k, const uint8_t* bin, size_t bin_size,
+                  const std::string& source, const std::string& where, const uint8_t** out,
+                  size_t* size) {
+  const json& views = doc["bufferViews"];
+  if (!views.is_array() || k >= views.size() || !views[k].is_object()) {
+    return error(ErrorCode::kInvalidData, source, "no bufferView " + std::to_string(k), where);
+  }
+  uint64_t buffer = 0, offset = 0, length = 0;
+  if (!count_member(views[k], "buffer", UINT64_MAX, &buffer) ||
+      !count_member(views[k], "byteOffset", 0, &offset) ||
+      !count_member(views[k], "byteLength", UINT64_MAX, &length) || length == UINT64_MAX) {
+    return error(ErrorCode::kInvalidData, source, "bad buffer, byteOffset or byteLength",
+                 view_at(k));
+  }
+  if (buffer != 0) {
+    return error(ErrorCode::kUnsupported, source,
+                 "Draco data outside the GLB's BIN chunk is not read", view_at(k));
+  }
+  if (offset > bin_size || length > bin_size - offset) {
+    return error(ErrorCode::kInvalidData, source,
+                 "bytes " + std::to_string(offset) + "-" + std::to_string(offset + length) +
+                     " lie beyond the BIN chunk's " + std::to_string(bin_size),
+                 view_at(k));
+  }
+  *out = bin + offset;
+  *size = size_t(length);
+  return {};
+}
+
+/// Appends `bytes` to the BIN chunk as a new view; returns its index.
+size_t append_view(json& doc, std::vector<uint8_t>* out_bin, const std::vector<uint8_t>& bytes) {
+  while (out_bin->size() % 4 != 0) out_bin->push_back(0);
+  doc["bufferViews"].push_back(
+      {{"buffer", 0}, {"byteOffset", out_bin->size()}, {"byteLength", bytes.size()}});
+  out_bin->insert(out_bin->end(), bytes.begin(), bytes.end());
+  return doc["bufferViews"].size() - 1;
+}
+
+/// Points accessor `a` at a new view of `bytes` (`component` type, `count` elements).
+Status rewrite_accessor(json& doc, const json& index, int component, size_t count,
+                        const std::string& source, const std::string& where,
+                        std::vector<uint8_t>* out_bin, const std::vector<uint8_t>& bytes) {
+  json& accessors = doc["accessors"];
+  if (!index.is_number_unsigned() || !accessors.is_array() ||
+      index.get<uint64_t>() >= accessors.size() || !accessors[index.get<size_t>()].is_object()) {
+    return error(ErrorCode::kInvalidData, source, "names no accessor", where);
+  }
+  json& a = accessors[index.get<size_t>()];
+  a["bufferView"] = append_view(doc, out_bin, bytes);
+  a["byteOffset"] = 0;
+  a["componentType"] = component;
+  a["count"] = count;
+  a.erase("normalized");
+  a.erase("sparse");
+  return {};
+}
+
+/// Decodes the Draco stream of mesh `m`'s primitive `p` and points its POSITION and indices
+/// accessors at the decoded data; its other attributes are dropped (osteon reads geometry).
+Status decode_draco(json& doc, json& primitive, size_t m, size_t p, const uint8_t* bin,
+                    size_t bin_size, const std::string& source, uint64_t* budget,
+                    std::vector<uint8_t>* out_bin) {
+  const std::string where =
+      "meshes[" + std::to_string(m) + "].primitives[" + std::to_string(p) + "]";
+  const json ext = *draco_of(primitive);
+  uint64_t view = 0, position_id = 0;
+  if (!count_member(ext, "bufferView", UINT64_MAX, &view) || view == UINT64_MAX ||
+      !ext.contains("attributes") || !ext["attributes"].is_object() ||
+      !count_member(ext["attributes"], "POSITION", UINT64_MAX, &position_id) ||
+      position_id == UINT64_MAX) {
+    return error(ErrorCode::kInvalidData, source,
+                 "KHR_draco_mesh_compression needs a bufferView and a POSITION attribute id",
+                 where);
+  }
+  const uint8_t* bytes = nullptr;
+  size_t size = 0;
+  OSTEON_RETURN_IF_ERROR(view_bytes(doc, view, bin, bin_size, source, where, &bytes, &size));
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(bytes), size);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  if (!decoded.ok()) {
+    return error(ErrorCode::kInvalidData, source,
+                 "the Draco stream does not decode: " + decoded.status().error_msg_string(),
+                 where);
+  }
+  const draco::Mesh& mesh = *decoded.value();
+  const draco::PointAttribute* positions =
+      mesh.GetAttributeByUniqueId(static_cast<uint32_t>(position_id));
+  if (positions == nullptr || positions->num_components() != 3) {
+    return error(ErrorCode::kInvalidData, source,
+                 "the Draco stream has no 3-component attribute " + std::to_string(position_id),
+                 where);
+  }
+  const uint64_t points = mesh.num_points(), faces = mesh.num_faces();
+  if (12 * points + 12 * faces > *budget) {
+    return error(ErrorCode::kInvalidData, source,
+                 "decodes to more than its " + std::to_string(size) + " bytes can hold", where);
+  }
+  *budget -= 12 * points + 12 * faces;
+  std::vector<uint8_t> xyz(size_t(12 * points));
+  for (uint32_t i = 0; i < points; ++i) {
+    float v[3] = {0, 0, 0};
+    if (!positions->ConvertValue<float, 3>(positions->mapped_index(draco::PointIndex(i)), v)) {
+      return error(ErrorCode::kInvalidData, source, "a Draco position does not convert", where);
+    }
+    std::memcpy(xyz.data() + 12 * size_t(i), v, 12);
+  }
+  std::vector<uint8_t> ids(size_t(12 * faces));
+  for (uint32_t f = 0; f < faces; ++f) {
+    const draco::Mesh::Face& face = mesh.face(draco::FaceIndex(f));
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = face[k].value();
+      std::memcpy(ids.data() + 12 * size_t(f) + 4 * size_t(k), &v, 4);
+    }
+  }
+  json& attributes = primitive["attributes"];
+  if (!attributes.is_object() || !attributes.contains("POSITION")) {
+    return error(ErrorCode::kInvalidData, source, "a Draco primitive without POSITION", where);
+  }
+  OSTEON_RETURN_IF_ERROR(rewrite_accessor(doc, attributes["POSITION"], 5126, size_t(points),
+                                          source, where + ".attributes.POSITION", out_bin, xyz));
+  if (primitive.contains("indices")) {
+    OSTEON_RETURN_IF_ERROR(rewrite_accessor(doc, primitive["indices"], 5125, size_t(3 * faces),
+                                            source, where + ".indices", out_bin, ids));
+  } else {
+    doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * faces}, {"type", "SCALAR"},
+                                {"bufferView", append_view(doc, out_bin, ids)}});
+    primitive["indices"] = doc["accessors"].size() - 1;
+  }
+  attributes = json{{"POSITION", attributes["POSITION"]}};
+  primitive["extensions"].erase(kDraco);
+  if (primitive["extensions"].empty()) primitive.erase("extensions");
+  return {};
+}
+
 void put_le32(std::vector<uint8_t>* out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out->push_back(uint8_t(v >> (8 * i)));
 }
@@ -186,11 +337,11 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
     for (const json& name : *required) {
       if (!name.is_string()) continue;
       const std::string n = name.get<std::string>();
-      if (is_meshopt(n) && glb) continue;
+      if ((is_meshopt(n) || n == kDraco) && glb) continue;
       if (!readable(n)) {
         return error(ErrorCode::kUnsupported, source,
                      "requires " + n + ", which osteon does not read" +
-                         (is_meshopt(n) ? " in a .gltf (convert it to .glb)" : ""),
+                         (is_meshopt(n) || n == kDraco ? " in a .gltf (convert it to .glb)" : ""),
                      "extensionsRequired");
       }
     }
@@ -199,13 +350,25 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
   if (glb && views != doc.end() && views->is_array()) {
     for (const json& view : *views) meshopt = meshopt || meshopt_of(view) != nullptr;
   }
-  if (!meshopt) return std::vector<uint8_t>();
+  bool draco = false;
+  const auto meshes = doc.find("meshes");
+  if (glb && meshes != doc.end() && meshes->is_array()) {
+    for (const json& mesh : *meshes) {
+      if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) {
+        continue;
+      }
+      for (const json& primitive : mesh["primitives"]) {
+        draco = draco || (primitive.is_object() && draco_of(primitive) != nullptr);
+      }
+    }
+  }
+  if (!meshopt && !draco) return std::vector<uint8_t>();
 
   // Every compressed view decoded after the original BIN bytes.
   std::vector<uint8_t> out_bin(bin, bin + bin_size);
   uint64_t budget = kExpansionFloor + kMaxExpansion * uint64_t(bin_size);
   std::vector<uint8_t> decoded;
-  for (size_t k = 0; k < views->size(); ++k) {
+  for (size_t k = 0; meshopt && k < views->size(); ++k) {
     json& view = (*views)[k];
     const json* m = meshopt_of(view);
     if (m == nullptr) continue;
@@ -217,8 +380,20 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
     out_bin.insert(out_bin.end(), decoded.begin(), decoded.end());
     erase_meshopt(view);
   }
+  for (size_t m = 0; draco && m < meshes->size(); ++m) {
+    json& mesh = (*meshes)[m];
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) {
+      continue;
+    }
+    for (size_t p = 0; p < mesh["primitives"].size(); ++p) {
+      json& primitive = mesh["primitives"][p];
+      if (!primitive.is_object() || draco_of(primitive) == nullptr) continue;
+      OSTEON_RETURN_IF_ERROR(
+          decode_draco(doc, primitive, m, p, bin, bin_size, source, &budget, &out_bin));
+    }
+  }
   // The fallback buffers go; every view now reads the BIN chunk (buffer 0).
-  for (size_t k = 0; k < views->size(); ++k) {
+  for (size_t k = 0; meshopt && k < views->size(); ++k) {
     if ((*views)[k].value("buffer", -1) != 0) {
       return error(ErrorCode::kUnsupported, source,
                    "a meshopt-compressed GLB whose uncompressed views use other buffers than the "
@@ -227,13 +402,19 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
     }
   }
   while (out_bin.size() % 4 != 0) out_bin.push_back(0);
-  doc["buffers"] = json::array({json{{"byteLength", out_bin.size()}}});
+  if (meshopt) {
+    doc["buffers"] = json::array({json{{"byteLength", out_bin.size()}}});
+  } else {
+    doc["buffers"][0]["byteLength"] = out_bin.size();
+  }
   for (const char* key : {"extensionsUsed", "extensionsRequired"}) {
     auto it = doc.find(key);
     if (it == doc.end() || !it->is_array()) continue;
     json kept = json::array();
     for (const json& name : *it) {
-      if (!(name.is_string() && is_meshopt(name.get<std::string>()))) kept.push_back(name);
+      const bool done = name.is_string() && ((meshopt && is_meshopt(name.get<std::string>())) ||
+                                                (draco && name.get<std::string>() == kDraco));
+      if (!done) kept.push_back(name);
     }
     if (kept.empty()) {
       doc.erase(key);
