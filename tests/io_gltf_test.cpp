@@ -973,3 +973,29 @@ TEST(IoGltf, UnreadableRequiredExtensionsAreRefusedByName) {
 
 }  // namespace
 }  // namespace osteon
+
+namespace osteon {
+namespace {
+
+// What the web pipelines write: the phantom's skull (320 triangles) through gltfpack 1.3 (-cc:
+// EXT_meshopt_compression; -cz: KHR_meshopt_compression's newer vertex codec) and gltf-transform
+// 4.5 (draco), kept as fuzz seeds.
+TEST(IoGltf, WhatGltfpackAndGltfTransformWrite) {
+  const std::string seeds = std::string(OSTEON_SOURCE_DIR) + "/fuzz/corpus/glb/";
+  for (const char* name : {"seed-phantom-skull-gltfpack-cc.glb",
+                           "seed-phantom-skull-gltf-transform-draco.glb"}) {
+    Result<Scene> scene = read_path(seeds + name);
+    ASSERT_TRUE(scene.ok()) << name << ": " << scene.status().message();
+    ASSERT_EQ(scene->parts.size(), 1u) << name;
+    EXPECT_EQ(scene->parts[0].triangle_count(), 320u) << name;
+    EXPECT_EQ(scene->parts[0].positions.size(), 162u) << name;
+  }
+  Result<Scene> cz = read_path(seeds + "seed-phantom-skull-gltfpack-cz.glb");
+  ASSERT_FALSE(cz.ok());
+  EXPECT_EQ(cz.status().code(), ErrorCode::kUnsupported);
+  EXPECT_NE(cz.status().message().find("meshopt vertex codec version 1"), std::string::npos)
+      << cz.status().message();
+}
+
+}  // namespace
+}  // namespace osteon
