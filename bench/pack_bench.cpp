@@ -361,23 +361,8 @@ int main(int argc, char** argv) {
       options.output = (scratch / "package").string();
       options.names = set.names;
       options.precision = (euclidean ? bound_mm / std::sqrt(3.0) : bound_mm) / set.mm_per_unit;
-      std::vector<Run> done;
-      for (int r = 0; r < runs; ++r) {
-        fs::remove_all(options.output);
-        Run run;
-        std::string failure;
-        if (!pack_in_child(set, options, &run, &failure)) {
-          std::fprintf(stderr, "pack_bench: %s: %s\n", set.label.c_str(), failure.c_str());
-          return 2;
-        }
-        done.push_back(run);
-      }
-      std::sort(done.begin(), done.end(), [](const Run& a, const Run& b) {
-        return a.report.timings.total_ms < b.report.timings.total_ms;
-      });
-      const Run& median = done[done.size() / 2];
-      double peak = 0;
-      for (const Run& run : done) peak = std::max(peak, run.peak_mib);
+      Run median;
+      if (!pack_median(set, options, runs, &median)) return 2;
       Distance distance;
       std::string failure;
       if (!measure(set, options.output, &distance, &failure)) {

@@ -24,10 +24,7 @@
 
 namespace osteon::detail {
 
-namespace {
-
-/// `mesh`'s triangles `indices`, with only their vertices (in first-use order).
-Mesh compact(const Mesh& mesh, const std::vector<uint32_t>& indices) {
+Mesh submesh(const Mesh& mesh, const std::vector<uint32_t>& indices) {
   Mesh out;
   out.name = mesh.name;
   out.source = mesh.source;
@@ -45,8 +42,6 @@ Mesh compact(const Mesh& mesh, const std::vector<uint32_t>& indices) {
   out.stored_vertices = out.positions.size();
   return out;
 }
-
-}  // namespace
 
 Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels) {
   std::vector<DetailLevel> levels;  // finest first while building
@@ -68,7 +63,7 @@ Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels)
     if (count == 0 || 4 * (count / 3) > 3 * triangles) break;  // the border holds it up
     kept.resize(count);
     DetailLevel level;
-    level.mesh = compact(*finer, kept);
+    level.mesh = submesh(*finer, kept);
     levels.push_back(std::move(level));
     finer = &levels.back().mesh;
   }

@@ -92,25 +92,12 @@ uint64_t file_size_or_zero(const std::string& path) {
 
 /// The triangles of `mesh` labelled `label`, with only their vertices (in first-use order).
 Mesh extract(const Mesh& mesh, const std::vector<uint32_t>& labels, uint32_t label) {
-  Mesh out;
-  out.name = mesh.name;
-  out.source = mesh.source;
-  out.unit = mesh.unit;
-  out.unit_source = mesh.unit_source;
-  std::vector<uint32_t> remap(mesh.positions.size(), UINT32_MAX);
+  std::vector<uint32_t> corners;
   for (size_t t = 0; t < labels.size(); ++t) {
     if (labels[t] != label) continue;
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t v = mesh.indices[3 * t + k];
-      if (remap[v] == UINT32_MAX) {
-        remap[v] = static_cast<uint32_t>(out.positions.size());
-        out.positions.push_back(mesh.positions[v]);
-      }
-      out.indices.push_back(remap[v]);
-    }
+    corners.insert(corners.end(), mesh.indices.begin() + 3 * t, mesh.indices.begin() + 3 * t + 3);
   }
-  out.stored_vertices = out.positions.size();
-  return out;
+  return detail::submesh(mesh, corners);
 }
 
 /// The world box of `box` under `m` (its eight corners transformed).

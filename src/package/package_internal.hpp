@@ -34,6 +34,10 @@ struct DisplayName {
 /// read_file's; kInvalidData for JSON that does not parse or a CSV line of fewer than 2 fields.
 Result<std::map<std::string, DisplayName>> read_names(const std::string& path);
 
+/// The triangles `indices` of `mesh` (corner indices, three a triangle), with only their vertices,
+/// in first-use order; name, source and unit kept. O(vertices + indices).
+Mesh submesh(const Mesh& mesh, const std::vector<uint32_t>& indices);
+
 /// A coarser level of detail of a component: its triangles and its measured distance from the
 /// full level (symmetric sampled Hausdorff, in the mesh's unit, before quantization).
 struct DetailLevel {
