@@ -215,6 +215,36 @@ export async function countForeground(context, png, origin, rect, background) {
   }
 }
 
+/// Counts the pixels where two screenshots of the same size (PNGs) differ by more than `tolerance`
+/// in some channel, decoded by the browser as countForeground does. Returns { pixels, differing }.
+export async function countDiffering(context, pngA, pngB, tolerance = 24) {
+  const page = await context.newPage();
+  try {
+    return await page.evaluate(async ({ a, b, tolerance }) => {
+      const pixelsOf = async (data) => {
+        const image = new Image();
+        image.src = `data:image/png;base64,${data}`;
+        await image.decode();
+        const c = document.createElement('canvas');
+        c.width = image.width;
+        c.height = image.height;
+        const g = c.getContext('2d');
+        g.drawImage(image, 0, 0);
+        return g.getImageData(0, 0, image.width, image.height).data;
+      };
+      const [pa, pb] = await Promise.all([pixelsOf(a), pixelsOf(b)]);
+      if (pa.length !== pb.length) throw new Error(`the screenshots differ in size (${pa.length / 4} and ${pb.length / 4} pixels)`);
+      let differing = 0;
+      for (let i = 0; i < pa.length; i += 4) {
+        if (Math.abs(pa[i] - pb[i]) > tolerance || Math.abs(pa[i + 1] - pb[i + 1]) > tolerance || Math.abs(pa[i + 2] - pb[i + 2]) > tolerance) ++differing;
+      }
+      return { pixels: pa.length / 4, differing };
+    }, { a: pngA.toString('base64'), b: pngB.toString('base64'), tolerance });
+  } finally {
+    await page.close();
+  }
+}
+
 /// Rewrites a package packed with --no-lod as version 2 (the format before levels of detail):
 /// manifest.json and its .gz. Returns the manifest.
 export function asVersion2(dir) {

@@ -24,6 +24,7 @@ import {
   asVersion2,
   chunkFiles,
   corruptRange,
+  countDiffering,
   countForeground,
   dataDir,
   launchBrowser,
@@ -555,6 +556,59 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     const { png, box } = await shootCanvas(page, 'lod-corrupt-level');
     const bounds = await page.evaluate(() => window.osteon.screenBoundsOf('pelvis'));
     assert.ok((await countForeground(context, png, box, bounds, state.background)).fraction > 0.1, 'the pelvis is drawn');
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+
+  test('before three.js is ready, the first frames draw every bone as three.js then draws it; picks wait for three.js', async () => {
+    const m = phantomManifest;
+    const context = await browser.newContext(kDesktop);
+    // three.js's code is held back on its way to the renderer until released.
+    await context.addInitScript(() => {
+      const post = Worker.prototype.postMessage;
+      const held = [];
+      let released = false;
+      Worker.prototype.postMessage = function (message, transfer) {
+        if (message?.type === 'three' && !released) return void held.push([this, message, transfer]);
+        return post.call(this, message, transfer);
+      };
+      window.__releaseThree = () => {
+        released = true;
+        for (const [worker, message, transfer] of held.splice(0)) post.call(worker, message, transfer);
+      };
+    });
+    const { page, problems } = await openViewer(context, `${server.url}phantom/`);
+    const early = await waitLoaded(page);
+    assert.deepEqual(early.errors, []);
+    assert.equal(early.componentsLoaded, m.components.length);
+    assert.equal(early.instancesDrawn, m.instances.length);
+    assert.ok(early.timings.firstFrames > early.timings.context, JSON.stringify(early.timings));
+    assert.equal(early.timings.three, undefined, 'three.js has not been loaded');
+    assert.ok(early.firstFrameMs >= early.timings.firstFrames && early.skeletonCompleteMs >= early.firstFrameMs);
+    const before = await shootCanvas(page, 'phantom-first-frames');
+    // A click waits for three.js's view (picking is its raycaster).
+    const skull = await page.evaluate(() => window.osteon.screenPositionOf('skull'));
+    await page.mouse.click(skull.x, skull.y);
+    await page.waitForTimeout(200);
+    assert.equal(await page.evaluate(() => window.osteon.selected), null);
+
+    await page.evaluate(() => window.__releaseThree());
+    await page.waitForFunction(() => window.osteon.timings.compiled !== undefined && window.osteon.selected === 'skull');
+    await settle(page);
+    // Deselected, so both pictures show the same bones in the same colours.
+    await page.locator('#canvas').press('Escape');
+    await page.waitForFunction(() => window.osteon.selected === null);
+    await settle(page);
+    const after = await shootCanvas(page, 'phantom-three');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf());
+    const drawn = await countForeground(context, after.png, after.box, bounds, early.background);
+    const firstDrawn = await countForeground(context, before.png, before.box, bounds, early.background);
+    const diff = await countDiffering(context, before.png, after.png);
+    console.log(`# first frames: ${firstDrawn.differing} bone pixels, three.js ${drawn.differing}; ${diff.differing} pixels differ between them`);
+    assert.ok(drawn.fraction > 0.08, 'three.js draws the skeleton');
+    assert.ok(Math.abs(firstDrawn.differing - drawn.differing) < 0.02 * drawn.differing, 'the first frames cover what three.js covers');
+    assert.ok(diff.differing < 0.05 * drawn.differing, `${diff.differing} pixels differ from three.js's frame`);
+    assert.ok(Math.abs(firstDrawn.luminance - drawn.luminance) < 8, `lit alike: ${firstDrawn.luminance.toFixed(1)} against ${drawn.luminance.toFixed(1)}`);
     assert.deepEqual(problems, []);
     await context.close();
   });

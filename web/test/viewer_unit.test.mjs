@@ -19,6 +19,7 @@ import { Group, PerspectiveCamera, Raycaster, Vector3 } from 'three';
 
 import { defaultView, fitBox } from '../viewer/camera.mjs';
 import { determinant3, drawInfo, drawStats, findPart, formatLength, parseManifest, transformBox } from '../viewer/manifest.mjs';
+import { cameraMatrices } from '../viewer/first_frames.mjs';
 import { createPackageScene, flipWinding } from '../viewer/scene.mjs';
 import { createChunkStream, createChunkCache, fetchRange, planChunks } from '../viewer/stream.mjs';
 import { createLevelLoader } from '../viewer/levels.mjs';
@@ -274,6 +275,21 @@ describe('manifest, scene and camera on a packed phantom', { skip: skipCli }, ()
 });
 
 describe('viewer helpers', () => {
+  test('the first frames see through the camera three.js would: its view and projection matrices', () => {
+    const camera = new PerspectiveCamera(35, 1.6, 0.4, 9000);
+    camera.position.set(120, -900, 310);
+    camera.up.set(0, 0, 1);
+    camera.lookAt(10, 20, 300);
+    camera.updateMatrixWorld();
+    const { view, projection } = cameraMatrices({
+      position: camera.position.toArray(), quaternion: camera.quaternion.toArray(),
+      fov: camera.fov, aspect: camera.aspect, near: camera.near, far: camera.far,
+    });
+    const close = (a, b, what) => a.forEach((v, i) => assert.ok(Math.abs(v - b[i]) <= 1e-4 * Math.max(1, Math.abs(b[i])), `${what}[${i}]: ${v} against ${b[i]}`));
+    close(view, camera.matrixWorldInverse.elements, 'view');
+    close(projection, camera.projectionMatrix.elements, 'projection');
+  });
+
   test('flipWinding swaps two corners of every triangle', () => {
     assert.deepEqual(Array.from(flipWinding(new Uint32Array([0, 1, 2, 3, 4, 5]))), [0, 2, 1, 3, 5, 4]);
   });

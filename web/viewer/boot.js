@@ -2,15 +2,16 @@
 // The viewer's bootstrap: build.mjs minifies this classic script into index.html, after the
 // canvas, so it runs while the page is still being parsed, before any other script has arrived.
 // It starts everything the first bones need, at once and in parallel:
-//   - manifest.json (or ?manifest=URL);
+//   - manifest.json (or ?manifest=URL), and once it is in, the first two chunk files (the stream
+//     keeps two in flight);
 //   - the WebAssembly decoder, fetched and compiled (off the main thread: WebAssembly.compile is
 //     asynchronous);
 //   - the render worker (render_worker.mjs, inlined in the page), given the canvas as an
-//     OffscreenCanvas and the manifest: it creates the WebGL context while three.js downloads;
+//     OffscreenCanvas and the manifest: it creates the WebGL context while three.js downloads,
+//     and draws the first frames without three.js (first_frames.mjs);
 //   - three.js's part of the renderer (render_three.mjs), fetched here and handed to the render
 //     worker as text: fetched by the worker, it would wait for the worker's own script to arrive
-//     and start (a round trip or more); once it is in, the first two chunk files (the stream
-//     keeps two in flight);
+//     and start (a round trip or more);
 //   - the decoder workers (hardware threads - 1, 1 to 4), so their script is in by the time the
 //     first component is.
 // The page's script (main.mjs) picks up what is in flight from window.osteonBoot:
@@ -20,7 +21,8 @@
 //     wasm: Promise<WebAssembly.Module>, decoders: [Worker], decoderError, link (the render
 //     worker, or a MessagePort to the renderer when it runs on the page), rendererPort (that case
 //     only: the renderer's end), offscreen, messages (what the renderer said before main.mjs set
-//     `deliver`, its handler), rendererError }
+//     `deliver`, its handler), rendererStarted (a Promise: settled by the renderer's first
+//     message, or the worker's failure), rendererError }
 // Where a canvas cannot be handed to a worker (no OffscreenCanvas; or ?render=page), the
 // renderer runs on the page's main thread instead: main.mjs starts it on `rendererPort`.
 //
@@ -64,11 +66,11 @@
     return code;
   });
   // The first two chunks that hold first streams (a component's coarsest level, or its only
-  // one; finer levels come later, by byte range), once the manifest names them and three.js has
-  // arrived: until the renderer has its code no bone can be drawn, and a chunk downloading beside
-  // three.js takes a share of the link that three.js would then wait for. (main.mjs checks the
-  // manifest in full; here only the file names are checked, as the fetch needs them.)
-  boot.chunksStarted = Promise.all([boot.manifest, three.catch(() => {})]).then(([manifestText]) => {
+  // one; finer levels come later, by byte range), as soon as the manifest names them, beside
+  // three.js if it is still on its way: the renderer draws its first frames without three.js
+  // (first_frames.mjs), so the bones, not the code, are what the first frame waits for. (main.mjs
+  // checks the manifest in full; here only the file names are checked, as the fetch needs them.)
+  boot.chunksStarted = boot.manifest.then((manifestText) => {
     const json = JSON.parse(manifestText);
     const chunks = json.chunks;
     const first = new Set(json.components.map((c) => (c.levels && c.levels.length ? c.levels[0].chunk : c.chunk)));
@@ -90,14 +92,18 @@
 
   let link = null;
   const canvas = document.getElementById('canvas');
-  const rect = canvas.getBoundingClientRect();
   const init = {
     type: 'init',
-    width: Math.max(1, Math.floor(rect.width)),
-    height: Math.max(1, Math.floor(rect.height)),
     pixelRatio: Math.min(window.devicePixelRatio || 1, 2),
     pageOrigin: performance.timeOrigin,
     base: location.href,
+  };
+  // The canvas's size, read once the worker is on its way: reading it lays the page out (tens of
+  // milliseconds with the panel), and the worker's start need not wait for that.
+  const measure = () => {
+    const rect = canvas.getBoundingClientRect();
+    init.width = Math.max(1, Math.floor(rect.width));
+    init.height = Math.max(1, Math.floor(rect.height));
   };
   boot.offscreen = false;
   if (canvas.transferControlToOffscreen && params.get('render') !== 'page') {
@@ -122,6 +128,7 @@
         boot.rendererError = `osteon: the render worker failed: ${e.message || 'its script could not be loaded'}`;
         deliver({ type: 'fatal', error: boot.rendererError, at: performance.now() });
       });
+      measure();
       worker.postMessage(init, [init.canvas]);
       boot.offscreen = true;
     }
@@ -131,10 +138,18 @@
     const channel = new MessageChannel();
     link = channel.port1;
     boot.rendererPort = channel.port2;
+    measure();
     link.postMessage(init);
   }
   boot.link = link;
-  link.onmessage = (e) => deliver(e.data);
+  // Settled by the renderer's first message (its 'started'), or by its failure.
+  boot.rendererStarted = new Promise((resolve) => {
+    link.onmessage = (e) => {
+      resolve();
+      deliver(e.data);
+    };
+    if (boot.offscreen) link.addEventListener('error', () => resolve());
+  });
 
   // The decoder workers after the render worker: theirs is not the first script needed.
   const workers = Math.max(1, Math.min(4, (navigator.hardwareConcurrency || 2) - 1));

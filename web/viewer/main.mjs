@@ -37,6 +37,9 @@ import { frameDrawn, resize, screenBoundsOf, screenPositionOf, startControls } f
 /* global OSTEON_RENDER_WORKER_FILE */
 const kRenderWorkerFile = typeof OSTEON_RENDER_WORKER_FILE === 'string' ? OSTEON_RENDER_WORKER_FILE : './render_worker.mjs';
 
+// How long the page waits for the render worker to start before reading the manifest regardless.
+const kRendererStartWaitMs = 1000;
+
 /// The renderer's messages (render_worker.mjs lists them).
 function onRendererMessage(state, message) {
   switch (message?.type) {
@@ -108,6 +111,10 @@ async function main(state) {
   new ResizeObserver(onResize).observe($('view'));
   onResize();  // the camera's aspect, before the view is fitted below
 
+  // The render worker gets its first message (the canvas) through this thread, so this thread's
+  // own long work (the manifest's parse, the panel) waits until the worker has started: done
+  // first, it would hold back the worker's start, and so its WebGL context, by as long.
+  if (boot.offscreen) await Promise.race([boot.rendererStarted, new Promise((resolve) => setTimeout(resolve, kRendererStartWaitMs))]);
   if (!(await readManifest(state))) return;
   startLog(state);
   startControls(state);

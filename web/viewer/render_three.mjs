@@ -36,6 +36,9 @@ import { createPackageScene } from './scene.mjs';
 /// `width`, `height`: the canvas's size in CSS pixels; `pixelRatio`: device pixels per CSS pixel.
 export function createView({ canvas, context, manifest, width, height, pixelRatio }) {
   const renderer = new WebGLRenderer({ canvas, context, antialias: true });
+  // The context may have drawn the first frames (first_frames.mjs): three.js's cached state
+  // starts from the context's defaults.
+  renderer.resetState();
   renderer.localClippingEnabled = true;  // the clipping plane is set per material
   const scene = new Scene();
   scene.background = new Color(kBackground);
@@ -95,8 +98,9 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
     /// the first draw (with no parallel shader compilation; SwiftShader has none), and the first
     /// frame with bones would otherwise wait for them. (Drawn into a render target instead, the
     /// canvas would get no empty frame, but three.js would compile other programs: a target
-    /// gets linear output, the canvas sRGB.)
-    precompile() {
+    /// gets linear output, the canvas sRGB.) With `draw` false (first frames are on screen and
+    /// the frame with every bone follows in the same task) only compiled: that frame's draw links.
+    precompile({ draw = true } = {}) {
       const geometry = new BufferGeometry();
       geometry.setAttribute('position', new BufferAttribute(new Float32Array(9), 3));
       geometry.setAttribute('normal', new BufferAttribute(new Float32Array([0, 0, 1, 0, 0, 1, 0, 0, 1]), 3));
@@ -110,7 +114,7 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
         root.add(object);
       }
       renderer.compile(scene, camera);
-      renderer.render(scene, camera);  // a degenerate triangle: draws nothing but the background
+      if (draw) renderer.render(scene, camera);  // a degenerate triangle: draws nothing but the background
       root.remove(single, batch);
       batch.dispose();
       geometry.dispose();

@@ -17,6 +17,13 @@
 // imported by its own URL. Meshes that arrive before three.js is ready wait in a queue and are
 // drawn in its first frame.
 //
+// Why the first frame comes without three.js: parsing it, making its renderer and compiling the
+// bone material take longer than the first chunks take to arrive and decode. Once the context,
+// the manifest, the page's camera and a decoded component are here, first_frames.mjs (a small
+// WebGL 2 program) draws what has arrived, at its first level, and only then does three.js's
+// import begin; its view then takes the context over and draws the same meshes in its first
+// frame, in the same task that makes it, so no empty frame shows in between.
+//
 // The bootstrap starts this worker from a blob: URL of this script's text, inlined in the page:
 // fetching it first would cost a round trip before the context could be made. (Where blob:
 // workers are refused, by a content security policy, it starts from this file.) Browsers without
@@ -43,18 +50,21 @@
 //   { type: 'shown', frame }                the page has had an animation frame since that frame
 // Messages to the page (times are the page's performance.now()):
 //   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]] }
-//                                                     a frame was drawn (render() returned), with
+//                                                     a frame was drawn (render() returned, or
+//                                                     first_frames.mjs's draw), with
 //                                                     the page's changes up to `seq`; `drawn`
 //                                                     appear in it first, `levels` at a new level
 //   { type: 'failed', ids, error, at, level? }        a mesh the scene refused (`level`: a finer
 //                                                     level's, the component stays drawn)
 //   { type: 'fatal', error, at }                      nothing will be drawn
 //   { type: 'timing', name, at }                      a step of the start: 'started', 'context',
-//                                                     'three' (loaded), 'view' (renderer made),
-//                                                     'compiled'
+//                                                     'firstFrames' (first_frames.mjs's program
+//                                                     linked), 'three' (loaded), 'view' (renderer
+//                                                     made), 'compiled'
 //
 // Based on: the HTML OffscreenCanvas (transferControlToOffscreen) model of rendering in a worker.
 
+import { createFirstFrames } from './first_frames.mjs';
 import { parseManifest } from './manifest.mjs';
 
 // build.mjs replaces OSTEON_RENDER_THREE_FILE with the three.js part's content-hashed file name.
@@ -84,6 +94,10 @@ const kFirstFrameTriangles = 60000;
 // heavy frame queued right behind the first would hold the first one off the screen until both
 // were done (a second and more with a software GPU).
 const kShownWaitMs = 250;
+// three.js's import waits, while first frames are drawn, until every component is drawn or this
+// long after the context was made: the components that arrive once its import has begun wait for
+// its first frame.
+const kFirstFramesWaitMs = 500;
 
 /// The renderer's state: what has arrived from the page, the view once it can be made, and the
 /// frames. Every step below takes it (as `r`).
@@ -96,8 +110,18 @@ function createRendererState(port, local) {
     canvas: null,
     context: null,
     three: null,           // render_three.mjs, once loaded
+    threeMessage: null,    // the page's 'three' message, until its import starts
+    threeStarted: false,   // its import has started (no first frames after that)
+    threeTimer: null,      // the import's start, when it waits for first frames
+    contextAt: 0,          // when the context was made
     manifest: null,
     view: null,            // its view, once three.js, the context and the manifest are here
+    firstFrames: null,     // the drawer of the frames before the view (first_frames.mjs), while in use
+    firstFramesOff: false, // it cannot be used (its program did not link, or a draw threw)
+    firstQueued: 0,        // the queue's messages it has taken up
+    latest: new Map(),     // the latest camera, size, parts and clip, which the first frames draw with
+    latestChanged: false,  // one of them changed since the last first frame
+    reported: new Set(),   // component ids reported drawn
     fatal: null,
     settings: new Map(),   // the latest camera, size, parts and clip, not yet applied
     picks: [],             // picks asked for before the view existed
@@ -135,7 +159,7 @@ const nextFrame = typeof requestAnimationFrame === 'function'
   : (f) => setTimeout(f, 16);
 
 function requestFrame(r) {
-  if (r.framePending || !r.view) return;
+  if (r.framePending || !(r.view || canDrawFirst(r))) return;
   r.framePending = true;
   nextFrame(() => drawFrame(r));
 }
@@ -183,8 +207,12 @@ function addMeshes(r, take) {
           r.view.addLevel(id, message.level, message.mesh);
         } else {
           r.view.add(id, message.mesh);
-          added.push(id);
-          r.drawnComponents++;
+          // Drawn already, maybe, by the first frames.
+          if (!r.reported.has(id)) {
+            r.reported.add(id);
+            added.push(id);
+            r.drawnComponents++;
+          }
         }
       } catch (e) {
         post(r, { type: 'failed', ids: [id], level: message.level, error: String(e?.message ?? e), at: now(r) });
@@ -194,9 +222,74 @@ function addMeshes(r, take) {
   return added;
 }
 
+/// Whether a frame can be drawn before the view exists (first_frames.mjs): the context, the
+/// manifest and the page's camera are here, a mesh has arrived (the drawer is made with the first
+/// one), and three.js's import has not begun (startThree). (Once it has, no more: a frame drawn
+/// while three.js loads would delay it, its first frame waiting on the GPU for this one.)
+function canDrawFirst(r) {
+  if (r.view || r.threeStarted || r.fatal || r.firstFramesOff || !r.context || !r.manifest || !r.latest.has('camera')) return false;
+  return r.firstFrames !== null || r.queue.some((message) => message.type === 'mesh');
+}
+
+/// A frame before three.js's view: every component that has arrived so far, at its first level.
+/// The messages stay queued for the view, which draws the same meshes once it is made.
+function drawFirstFrame(r) {
+  if (!canDrawFirst(r)) return;
+  const { init, latest } = r;
+  if (!r.firstFrames) {
+    try {
+      r.firstFrames = createFirstFrames(r.context, r.manifest);
+    } catch (e) {
+      r.firstFrames = null;
+    }
+    if (!r.firstFrames) {
+      r.firstFramesOff = true;  // three.js draws the first frame instead
+      return;
+    }
+    mark(r, 'firstFrames');
+  }
+  const added = [];
+  for (const message of r.queue.slice(r.firstQueued)) {
+    if (message.type !== 'mesh') continue;
+    for (const id of message.ids) if (r.firstFrames.add(id, message.mesh)) added.push(id);
+  }
+  r.firstQueued = r.queue.length;
+  if (!added.length && !(r.frame > 0 && r.latestChanged)) return;
+  r.latestChanged = false;
+  const { width, height, pixelRatio } = latest.get('size') ?? init;
+  // As three.js's setSize: the drawing buffer in device pixels (only when it changes: setting it
+  // clears the canvas).
+  const w = Math.floor(Math.max(1, width) * pixelRatio);
+  const h = Math.floor(Math.max(1, height) * pixelRatio);
+  if (r.canvas.width !== w) r.canvas.width = w;
+  if (r.canvas.height !== h) r.canvas.height = h;
+  try {
+    r.firstFrames.draw({
+      camera: latest.get('camera'),
+      width: w,
+      height: h,
+      hidden: latest.get('parts')?.hidden ?? null,
+      highlight: latest.get('parts')?.highlight ?? -1,
+      clip: latest.get('clip') ?? null,
+    });
+  } catch (e) {
+    r.firstFramesOff = true;
+    return;
+  }
+  for (const id of added) r.reported.add(id);
+  r.drawnComponents += added.length;
+  r.frame++;
+  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added, levels: [] });
+}
+
 function drawFrame(r) {
   r.framePending = false;
   if (r.fatal) return;
+  if (!r.view) {
+    drawFirstFrame(r);
+    startThree(r);  // if it waited for this frame
+    return;
+  }
   const added = addMeshes(r, meshesForFrame(r));
   try {
     r.view.render();
@@ -225,19 +318,48 @@ function applySettings(r) {
 function startView(r) {
   if (r.view || r.fatal || !r.three || !r.context || !r.manifest) return;
   const { init } = r;
+  // The first frames' drawer goes before three.js's renderer takes the context.
+  if (r.firstFrames) {
+    r.firstFrames.dispose();
+    r.firstFrames = null;
+  }
   try {
     r.view = r.three.createView({ canvas: r.canvas, context: r.context, manifest: r.manifest, width: init.width, height: init.height, pixelRatio: init.pixelRatio });
     mark(r, 'view');
     applySettings(r);
-    // The bone material's programs, compiled before the first mesh needs them.
-    r.view.precompile();
+    // The bone material's programs, compiled before the first mesh needs them (and drawn once,
+    // unless first frames are on screen: then the frame with every bone follows at once).
+    r.view.precompile({ draw: r.frame === 0 });
     mark(r, 'compiled');
   } catch (e) {
     fail(r, `osteon: the renderer failed: ${e?.message ?? e}`);
     return;
   }
+  // After first frames, three.js's frame follows in this same task: making the view reset the
+  // canvas, and an empty frame must not replace the bones on screen. Then the picks asked
+  // meanwhile are answered, on what the first frames showed.
+  if (r.frame > 0) drawFrame(r);
+  else requestFrame(r);
   for (const { id, ndc } of r.picks.splice(0)) post(r, { type: 'picked', id, part: r.view.pick(ndc) });
-  requestFrame(r);
+}
+
+/// Starts three.js's import once the first frames are done: the first one drawn where it can be
+/// drawn now (parsing three.js holds this thread for longer than that frame takes), the next ones
+/// while components still arrive, until every one is drawn or kFirstFramesWaitMs have passed
+/// since the context was made.
+function startThree(r) {
+  const message = r.threeMessage;
+  if (!message) return;
+  if (r.frame === 0) drawFirstFrame(r);
+  const waited = now(r) - r.contextAt;
+  if (r.frame > 0 && canDrawFirst(r) && r.drawnComponents < r.manifest.components.length && waited < kFirstFramesWaitMs) {
+    r.threeTimer ??= setTimeout(() => startThree(r), kFirstFramesWaitMs - waited);
+    return;
+  }
+  clearTimeout(r.threeTimer);
+  r.threeMessage = null;
+  r.threeStarted = true;
+  loadThree(r, message.text);
 }
 
 /// Imports three.js's part of the renderer: from `text` (the page fetched it) by a blob: URL, or
@@ -276,6 +398,7 @@ function onInit(r, message) {
     fail(r, 'osteon: WebGL 2 is not available in this browser');
     return;
   }
+  r.contextAt = now(r);
   mark(r, 'context');
   startView(r);
 }
@@ -321,7 +444,10 @@ function handle(r, message) {
       onManifest(r, message);
       return;
     case 'three':
-      loadThree(r, message.text);
+      r.threeMessage = message;
+      // After the messages already queued (the camera, meshes), which may make a first frame
+      // to draw before three.js's import takes this thread.
+      setTimeout(() => startThree(r), 0);
       return;
     case 'mesh':
     case 'level':
@@ -337,9 +463,13 @@ function handle(r, message) {
     case 'parts':
     case 'clip':
       r.settings.set(message.type, message);
+      r.latest.set(message.type, message);
+      r.latestChanged = true;
       if (r.view) {
         applySettings(r);
         requestFrame(r);
+      } else {
+        requestFrame(r);  // a first frame, where one can be drawn
       }
       return;
     case 'pick':
