@@ -819,12 +819,7 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
     return error(ErrorCode::kUnsupported, source,
                  "glTF version '" + version + "' is not supported (only 2.x)", "asset");
   }
-  for (const std::string& name : model.extensionsRequired) {
-    if (!extension_ok(name)) {
-      return error(ErrorCode::kUnsupported, source,
-                   "requires " + name + ", which osteon does not read", "extensionsRequired");
-    }
-  }
+  // Required extensions were checked by plain_gltf, before tinygltf.
 
   // The root nodes: the default scene's, else scene 0's, else every node nobody points to.
   const size_t node_count = model.nodes.size();

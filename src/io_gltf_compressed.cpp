@@ -28,6 +28,7 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "io_internal.hpp"
@@ -79,6 +80,26 @@ void erase_meshopt(json& object) {
   if (ext.empty()) object.erase("extensions");
 }
 
+/// Bytes [offset, offset + length) inside the BIN chunk of `bin_size` bytes, else an error at
+/// `where` (`what`: "compressed bytes", "bytes").
+Status check_in_bin(uint64_t offset, uint64_t length, size_t bin_size, const char* what,
+                    const std::string& source, const std::string& where) {
+  if (offset <= bin_size && length <= bin_size - offset) return {};
+  return error(ErrorCode::kInvalidData, source,
+               std::string(what) + " " + std::to_string(offset) + "-" +
+                   std::to_string(offset + length) + " lie beyond the BIN chunk's " +
+                   std::to_string(bin_size),
+               where);
+}
+
+/// Appends `bytes` to the BIN chunk at a 4-byte boundary; returns where they start.
+size_t append_aligned(std::vector<uint8_t>* out_bin, const std::vector<uint8_t>& bytes) {
+  while (out_bin->size() % 4 != 0) out_bin->push_back(0);
+  const size_t at = out_bin->size();
+  out_bin->insert(out_bin->end(), bytes.begin(), bytes.end());
+  return at;
+}
+
 /// Decodes one compressed view's data into `out` (count * stride bytes).
 Status decode_view(const json& m, size_t k, const uint8_t* bin, size_t bin_size,
                    const std::string& source, uint64_t* budget, std::vector<uint8_t>* out) {
@@ -100,12 +121,7 @@ Status decode_view(const json& m, size_t k, const uint8_t* bin, size_t bin_size,
                      ") is not read",
                  where);
   }
-  if (offset > bin_size || length > bin_size - offset) {
-    return error(ErrorCode::kInvalidData, source,
-                 "compressed bytes " + std::to_string(offset) + "-" + std::to_string(offset + length) +
-                     " lie beyond the BIN chunk's " + std::to_string(bin_size),
-                 where);
-  }
+  OSTEON_RETURN_IF_ERROR(check_in_bin(offset, length, bin_size, "compressed bytes", source, where));
   const std::string mode = m.value("mode", std::string());
   const std::string filter = m.value("filter", std::string("NONE"));
   const bool attributes = mode == "ATTRIBUTES";
@@ -201,12 +217,7 @@ Status view_bytes(const json& doc, uint64_t k, const uint8_t* bin, size_t bin_si
     return error(ErrorCode::kUnsupported, source,
                  "Draco data outside the GLB's BIN chunk is not read", view_at(k));
   }
-  if (offset > bin_size || length > bin_size - offset) {
-    return error(ErrorCode::kInvalidData, source,
-                 "bytes " + std::to_string(offset) + "-" + std::to_string(offset + length) +
-                     " lie beyond the BIN chunk's " + std::to_string(bin_size),
-                 view_at(k));
-  }
+  OSTEON_RETURN_IF_ERROR(check_in_bin(offset, length, bin_size, "bytes", source, view_at(k)));
   *out = bin + offset;
   *size = size_t(length);
   return {};
@@ -214,10 +225,8 @@ Status view_bytes(const json& doc, uint64_t k, const uint8_t* bin, size_t bin_si
 
 /// Appends `bytes` to the BIN chunk as a new view; returns its index.
 size_t append_view(json& doc, std::vector<uint8_t>* out_bin, const std::vector<uint8_t>& bytes) {
-  while (out_bin->size() % 4 != 0) out_bin->push_back(0);
-  doc["bufferViews"].push_back(
-      {{"buffer", 0}, {"byteOffset", out_bin->size()}, {"byteLength", bytes.size()}});
-  out_bin->insert(out_bin->end(), bytes.begin(), bytes.end());
+  const size_t at = append_aligned(out_bin, bytes);
+  doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", bytes.size()}});
   return doc["bufferViews"].size() - 1;
 }
 
@@ -329,23 +338,17 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
                                         const uint8_t* bin, size_t bin_size, bool glb,
                                         const std::string& source,
                                         bool (*readable)(const std::string&)) {
+  // Most glTF needs nothing here: the JSON is parsed a second time (tinygltf parses it next) only
+  // when it names a required extension or a compression.
+  const std::string_view original(reinterpret_cast<const char*>(json_text), json_size);
+  if (original.find("extensionsRequired") == std::string_view::npos &&
+      original.find("_meshopt_compression") == std::string_view::npos &&
+      original.find(kDraco) == std::string_view::npos) {
+    return std::vector<uint8_t>();
+  }
   json doc = json::parse(json_text, json_text + json_size, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded() || !doc.is_object()) return std::vector<uint8_t>();  // tinygltf says why
   bool meshopt = false;
-  if (const auto required = doc.find("extensionsRequired");
-      required != doc.end() && required->is_array()) {
-    for (const json& name : *required) {
-      if (!name.is_string()) continue;
-      const std::string n = name.get<std::string>();
-      if ((is_meshopt(n) || n == kDraco) && glb) continue;
-      if (!readable(n)) {
-        return error(ErrorCode::kUnsupported, source,
-                     "requires " + n + ", which osteon does not read" +
-                         (is_meshopt(n) || n == kDraco ? " in a .gltf (convert it to .glb)" : ""),
-                     "extensionsRequired");
-      }
-    }
-  }
   const auto views = doc.find("bufferViews");
   if (glb && views != doc.end() && views->is_array()) {
     for (const json& view : *views) meshopt = meshopt || meshopt_of(view) != nullptr;
@@ -362,6 +365,23 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
       }
     }
   }
+  // The one check of required extensions: those decoded below pass, the others must be readable.
+  if (const auto required = doc.find("extensionsRequired");
+      required != doc.end() && required->is_array()) {
+    for (const json& name : *required) {
+      if (!name.is_string()) continue;
+      const std::string n = name.get<std::string>();
+      if ((meshopt && is_meshopt(n)) || (draco && n == kDraco)) continue;
+      if (!readable(n)) {
+        return error(ErrorCode::kUnsupported, source,
+                     "requires " + n + ", which osteon does not read" +
+                         (!glb && (is_meshopt(n) || n == kDraco)
+                              ? " in a .gltf (convert it to .glb)"
+                              : ""),
+                     "extensionsRequired");
+      }
+    }
+  }
   if (!meshopt && !draco) return std::vector<uint8_t>();
 
   // Every compressed view decoded after the original BIN bytes.
@@ -373,11 +393,9 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
     const json* m = meshopt_of(view);
     if (m == nullptr) continue;
     OSTEON_RETURN_IF_ERROR(decode_view(*m, k, bin, bin_size, source, &budget, &decoded));
-    while (out_bin.size() % 4 != 0) out_bin.push_back(0);
     view["buffer"] = 0;
-    view["byteOffset"] = out_bin.size();
+    view["byteOffset"] = append_aligned(&out_bin, decoded);
     view["byteLength"] = decoded.size();
-    out_bin.insert(out_bin.end(), decoded.begin(), decoded.end());
     erase_meshopt(view);
   }
   for (size_t m = 0; draco && m < meshes->size(); ++m) {

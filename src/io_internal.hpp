@@ -55,9 +55,10 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
 
 /// The glTF that web pipelines write, made plain (src/io_gltf_compressed.cpp): when a GLB's
 /// buffer views use EXT_meshopt_compression or KHR_meshopt_compression, the same GLB with them
-/// decoded (meshoptimizer) into its BIN chunk and the extensions removed; an empty vector when
-/// nothing needs decoding. A required extension for which `readable(name)` is false (and that is
-/// not decoded here) is refused first: kUnsupported, "requires NAME, which osteon does not read".
+/// and KHR_draco_mesh_compression primitives decoded (meshoptimizer, libdraco) into its BIN chunk
+/// and the extensions removed; an empty vector when nothing needs decoding. The glTF reader's one
+/// check of required extensions: one for which `readable(name)` is false (and that is not decoded
+/// here) is refused: kUnsupported, "requires NAME, which osteon does not read".
 /// Errors name `source` and the bufferView: ranges outside the BIN chunk, strides or modes the
 /// decoders do not take, data that does not decode, more decoded bytes than the cap.
 Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_size,

@@ -545,8 +545,8 @@ std::vector<std::vector<uint8_t>> chunk_streams(const std::vector<size_t>& strea
     add((*components)[c], 0);
     depth = std::max(depth, (*components)[c].streams.size());
   }
+  new_chunk = true;  // the first chunks hold first streams only
   for (size_t level = 1; level < depth; ++level) {
-    if (level == 1) new_chunk = true;  // the first chunks hold first streams only
     for (size_t c : stream) {
       if (level < (*components)[c].streams.size()) add((*components)[c], level);
     }
