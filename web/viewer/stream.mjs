@@ -250,3 +250,65 @@ export async function fetchRange(chunk, offset, bytes, { fetch, cache, signal } 
   if (have < bytes) throw new Error(`${have} bytes in the answers, the range has ${bytes}`);
   return { data, status: 206, received, requests: attempt };
 }
+
+/// The fetch plan for one stream of each of `components` (manifest.mjs components; `streamOf(c)`
+/// picks the level: { chunk, offset, bytes, level }), shaped as planChunks' so createChunkStream
+/// reads it: per chunk file, its needed byte ranges sorted by offset and grouped into spans, two
+/// ranges closer than `maxGap` bytes (default 64 KiB) going into one span, so one request brings
+/// both and the bytes between are read and dropped. A span is fetched with one `Range` request and
+/// read as a stream like a whole chunk (a span covering its whole chunk needs no Range). Ranges
+/// with byte-identical streams are decoded once, as in planChunks. Returns [{ index, file, url,
+/// bytes (the span's length), start (its first byte in the chunk), whole, ranges: [{ offset, end
+/// (relative to `start`), bytes, components, levels (each component's level index), label }] }];
+/// labels name the chunk, components, level and absolute bytes: "c/<h>.ostc (component c7, level
+/// 3 of 3, bytes 120-2338)".
+export function planSpans(manifest, base, components, streamOf, maxGap = 65536) {
+  const byChunk = new Map();  // chunk index -> Map key -> range
+  for (const component of components) {
+    const stream = streamOf(component);
+    const key = `${stream.offset}:${stream.bytes}`;
+    if (!byChunk.has(stream.chunk)) byChunk.set(stream.chunk, new Map());
+    const ranges = byChunk.get(stream.chunk);
+    let range = ranges.get(key);
+    if (!range) {
+      range = { offset: stream.offset, bytes: stream.bytes, end: stream.offset + stream.bytes, components: [], levels: [] };
+      ranges.set(key, range);
+    }
+    range.components.push(component);
+    range.levels.push(stream.level ?? component.levels.indexOf(stream));
+  }
+  const spans = [];
+  for (const [index, ranges] of [...byChunk].sort((a, b) => a[0] - b[0])) {
+    const chunk = manifest.chunks[index];
+    const sorted = [...ranges.values()].sort((a, b) => a.offset - b.offset || a.end - b.end);
+    let group = [];
+    const close = () => {
+      const start = group[0].offset;
+      const end = Math.max(...group.map((r) => r.end));
+      for (const r of group) {
+        const c = r.components[0];
+        const level = c.levels.length > 1 ? `, level ${r.levels[0] + 1} of ${c.levels.length}` : '';
+        const ids = r.components.map((x) => x.id).join(', ');
+        r.label = `${chunk.file} (component${r.components.length > 1 ? 's' : ''} ${ids}${level}, bytes ${r.offset}-${r.end})`;
+        r.offset -= start;
+        r.end -= start;
+      }
+      spans.push({
+        index,
+        file: chunk.file,
+        url: base === undefined ? chunk.file : new URL(chunk.file, base).href,
+        bytes: end - start,
+        start,
+        whole: start === 0 && end === chunk.bytes,
+        ranges: group.sort((a, b) => a.end - b.end || a.offset - b.offset),
+      });
+      group = [];
+    };
+    for (const range of sorted) {
+      if (group.length && range.offset - Math.max(...group.map((r) => r.end)) > maxGap) close();
+      group.push(range);
+    }
+    if (group.length) close();
+  }
+  return spans;
+}

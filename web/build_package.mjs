@@ -1,0 +1,114 @@
+// SPDX-License-Identifier: Apache-2.0
+// Builds what the npm package publishes (web/package.json "files"), into web/dist/ (ignored by
+// git): `npm run build:package`, and `npm pack` runs it first (prepack).
+//
+//   dist/loader.js            OsteonLoader (viewer/loader.mjs) with the modules it shares with the
+//                             viewer (manifest, stream, scene, decoder pool and wrapper) bundled
+//                             in; three is left an import (a peer dependency)
+//   dist/loader.d.ts          its types (viewer/loader.d.ts)
+//   dist/decoder-worker.js    the decoder worker (decoder/worker.mjs with the wrapper)
+//   dist/osteon_decoder.wasm  the WebAssembly decoder (build/wasm/, `npm run build:decoder`)
+//   dist/element.js           <osteon-viewer> (viewer/element.mjs), when that file exists, with
+//                             viewer/element.d.ts when it exists
+//
+// Each bundle is minified ES2022 (the module a page or a bundler gets is the one measured by
+// bench/npm_package_size.mjs). The decoder's Node-only branches (node:fs for file: URLs,
+// node:worker_threads) are replaced by modules that throw: the package is for browsers. Every
+// worker and WebAssembly URL in the bundles is written `new URL('./<file>', import.meta.url)`
+// with a file that is in dist/, the form bundlers (Vite, webpack 5) follow to copy the files.
+// Prints each file's size and its gzip -9 size.
+
+import { copyFileSync, existsSync, mkdirSync, readFileSync, rmSync } from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { gzipSync } from 'node:zlib';
+
+import * as esbuild from 'esbuild';
+
+const web = path.dirname(fileURLToPath(import.meta.url));
+const repo = path.resolve(web, '..');
+const out = path.resolve(process.env.OSTEON_PACKAGE_OUT ?? path.join(web, 'dist'));
+const wasmDir = path.resolve(process.env.OSTEON_WASM_DIR ?? path.join(repo, 'build', 'wasm'));
+const wasm = path.join(wasmDir, 'osteon_decoder.wasm');
+
+if (!existsSync(wasm)) {
+  console.error(`osteon: ${wasm} is missing: run npm run build:decoder first`);
+  process.exit(1);
+}
+
+/// node:* imports (taken only under Node) become modules that throw when imported.
+const browserOnly = {
+  name: 'browser-only',
+  setup(build) {
+    build.onResolve({ filter: /^node:/ }, (args) => ({ path: args.path, namespace: 'browser-only' }));
+    build.onLoad({ filter: /.*/, namespace: 'browser-only' }, (args) => ({
+      contents: `throw new Error(${JSON.stringify(`osteon: ${args.path} is not available in the browser build`)});`,
+      loader: 'js',
+    }));
+  },
+};
+
+/// The pool's default worker (`new Worker(new URL('./worker.mjs', import.meta.url))`, unused by
+/// the loader, which passes its own) is the package's decoder-worker.js: bundlers that follow
+/// that form (Vite, webpack 5) would otherwise look for a dist/worker.mjs that is not there.
+const poolWorker = {
+  name: 'pool-worker',
+  setup(build) {
+    build.onLoad({ filter: /decoder[\\/]pool\.mjs$/ }, (args) => {
+      const text = readFileSync(args.path, 'utf8');
+      const from = "new URL('./worker.mjs', import.meta.url)";
+      if (!text.includes(from)) throw new Error(`osteon: ${args.path}: no ${from} to point at decoder-worker.js`);
+      return { contents: text.replaceAll(from, "new URL('./decoder-worker.js', import.meta.url)"), loader: 'js' };
+    });
+  },
+};
+
+/// The worker's Node branch (`await import('node:worker_threads')`) goes: a top-level await is
+/// refused by bundlers that build workers as classic scripts (Vite's default).
+const workerBrowserOnly = {
+  name: 'worker-browser-only',
+  setup(build) {
+    build.onLoad({ filter: /decoder[\\/]worker\.mjs$/ }, (args) => {
+      const text = readFileSync(args.path, 'utf8');
+      const from = "const { parentPort } = await import('node:worker_threads');";
+      if (!text.includes(from)) throw new Error(`osteon: ${args.path}: no ${from} to take out`);
+      const to = "const parentPort = null; throw new Error('osteon: this decoder worker runs in browsers');";
+      return { contents: text.replace(from, to), loader: 'js' };
+    });
+  },
+};
+
+const common = {
+  bundle: true,
+  format: 'esm',
+  platform: 'browser',
+  target: 'es2022',
+  minify: true,
+  legalComments: 'none',
+  external: ['three'],
+  plugins: [browserOnly, poolWorker, workerBrowserOnly],
+  logLevel: 'warning',
+  banner: { js: '// SPDX-License-Identifier: Apache-2.0\n// osteon (https://github.com/osteon): built by web/build_package.mjs' },
+};
+
+rmSync(out, { recursive: true, force: true });
+mkdirSync(out, { recursive: true });
+const entries = [
+  [path.join(web, 'viewer', 'loader.mjs'), 'loader.js'],
+  [path.join(web, 'decoder', 'worker.mjs'), 'decoder-worker.js'],
+];
+const element = path.join(web, 'viewer', 'element.mjs');
+if (existsSync(element)) entries.push([element, 'element.js']);
+// The element finds the decoder worker by this name (its other files: see viewer/element.mjs).
+const define = { OSTEON_DECODER_WORKER_FILE: JSON.stringify('./decoder-worker.js') };
+for (const [entry, name] of entries) {
+  await esbuild.build({ ...common, entryPoints: [entry], outfile: path.join(out, name), ...(name === 'element.js' ? { define } : {}) });
+}
+copyFileSync(wasm, path.join(out, 'osteon_decoder.wasm'));
+copyFileSync(path.join(web, 'viewer', 'loader.d.ts'), path.join(out, 'loader.d.ts'));
+if (existsSync(path.join(web, 'viewer', 'element.d.ts'))) copyFileSync(path.join(web, 'viewer', 'element.d.ts'), path.join(out, 'element.d.ts'));
+
+for (const name of [...entries.map(([, n]) => n), 'osteon_decoder.wasm']) {
+  const bytes = readFileSync(path.join(out, name));
+  console.log(`osteon: dist/${name} ${bytes.length} bytes, gzip -9 ${gzipSync(bytes, { level: 9 }).length}`);
+}
