@@ -8,8 +8,13 @@
 //   dist/loader.d.ts          its types (viewer/loader.d.ts)
 //   dist/decoder-worker.js    the decoder worker (decoder/worker.mjs with the wrapper)
 //   dist/osteon_decoder.wasm  the WebAssembly decoder (build/wasm/, `npm run build:decoder`)
-//   dist/element.js           <osteon-viewer> (viewer/element.mjs), when that file exists, with
-//                             viewer/element.d.ts when it exists
+//   dist/osteon-viewer.mjs    <osteon-viewer> (viewer/element.mjs), with its types
+//                             (viewer/element.d.ts): the viewer's own build (viewer/build.mjs,
+//                             into a temporary folder), so the element in the package is the
+//                             standalone page's: osteon-viewer.mjs re-exports element-<h>.js,
+//                             which starts render-worker-<h>.js, render-three-<h>.js and
+//                             decoder-worker-<h>.js and fetches osteon_decoder.wasm, all beside it
+//                             (three.js bundled in: the element draws in its own worker)
 //
 // Each bundle is minified ES2022 (the module a page or a bundler gets is the one measured by
 // bench/npm_package_size.mjs). The decoder's Node-only branches (node:fs for file: URLs,
@@ -18,7 +23,9 @@
 // with a file that is in dist/, the form bundlers (Vite, webpack 5) follow to copy the files.
 // Prints each file's size and its gzip -9 size.
 
-import { copyFileSync, existsSync, mkdirSync, readFileSync, rmSync } from 'node:fs';
+import { spawnSync } from 'node:child_process';
+import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { gzipSync } from 'node:zlib';
@@ -97,16 +104,32 @@ const entries = [
   [path.join(web, 'viewer', 'loader.mjs'), 'loader.js'],
   [path.join(web, 'decoder', 'worker.mjs'), 'decoder-worker.js'],
 ];
-const element = path.join(web, 'viewer', 'element.mjs');
-if (existsSync(element)) entries.push([element, 'element.js']);
-// The element finds the decoder worker by this name (its other files: see viewer/element.mjs).
-const define = { OSTEON_DECODER_WORKER_FILE: JSON.stringify('./decoder-worker.js') };
 for (const [entry, name] of entries) {
-  await esbuild.build({ ...common, entryPoints: [entry], outfile: path.join(out, name), ...(name === 'element.js' ? { define } : {}) });
+  await esbuild.build({ ...common, entryPoints: [entry], outfile: path.join(out, name) });
+}
+
+// The element: the viewer's build, less the standalone page and the gzip copies.
+const viewerOut = mkdtempSync(path.join(tmpdir(), 'osteon-viewer-'));
+try {
+  const built = spawnSync(process.execPath, [path.join(web, 'viewer', 'build.mjs')], {
+    env: { ...process.env, OUT: viewerOut, WASM: wasm },
+    stdio: ['ignore', 'ignore', 'inherit'],
+  });
+  if (built.status !== 0) {
+    console.error('osteon: the viewer build (viewer/build.mjs) failed: the package needs its element');
+    process.exit(1);
+  }
+  for (const name of readdirSync(viewerOut)) {
+    if (name === 'index.html' || name.endsWith('.gz') || name === 'osteon_decoder.wasm') continue;
+    copyFileSync(path.join(viewerOut, name), path.join(out, name));
+    entries.push([null, name]);
+  }
+} finally {
+  rmSync(viewerOut, { recursive: true, force: true });
 }
 copyFileSync(wasm, path.join(out, 'osteon_decoder.wasm'));
 copyFileSync(path.join(web, 'viewer', 'loader.d.ts'), path.join(out, 'loader.d.ts'));
-if (existsSync(path.join(web, 'viewer', 'element.d.ts'))) copyFileSync(path.join(web, 'viewer', 'element.d.ts'), path.join(out, 'element.d.ts'));
+copyFileSync(path.join(web, 'viewer', 'element.d.ts'), path.join(out, 'osteon-viewer.d.ts'));
 
 for (const name of [...entries.map(([, n]) => n), 'osteon_decoder.wasm']) {
   const bytes = readFileSync(path.join(out, name));

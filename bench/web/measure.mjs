@@ -440,11 +440,11 @@ export async function canvasSize(browser, url, viewport, timeoutMs) {
     const page = await context.newPage();
     await page.goto(url, { waitUntil: 'load', timeout: timeoutMs });
     await page.waitForFunction(() => {
-      const c = document.querySelector('canvas');
+      const c = document.querySelector('canvas') ?? document.querySelector('osteon-viewer')?.shadowRoot?.querySelector('canvas');
       return c && c.clientWidth > 0 && c.clientHeight > 0;
     }, null, { timeout: timeoutMs, polling: 100 });
     return await page.evaluate(() => {
-      const c = document.querySelector('canvas');
+      const c = document.querySelector('canvas') ?? document.querySelector('osteon-viewer')?.shadowRoot?.querySelector('canvas');
       // A canvas of its own: the page's may have been handed to a worker (OffscreenCanvas).
       const probe = document.createElement('canvas');
       const gl = probe.getContext('webgl2') || probe.getContext('webgl');

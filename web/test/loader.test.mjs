@@ -138,8 +138,17 @@ describe('OsteonLoader from the npm tarball in Chromium', { skip: skip ?? false 
       { cwd: site, stdio: ['ignore', 'pipe', 'pipe'] });
     const installed = JSON.parse(readFileSync(path.join(site, 'node_modules', 'osteon', 'package.json'), 'utf8'));
     assert.equal(installed.name, 'osteon');
-    assert.deepEqual(readdirSync(path.join(site, 'node_modules', 'osteon', 'dist')).filter((f) => !f.startsWith('element')).sort(),
+    const dist = path.join(site, 'node_modules', 'osteon', 'dist');
+    const files = readdirSync(dist).sort();
+    assert.deepEqual(files.filter((f) => !/^(element-|render-|osteon-viewer\.|decoder-worker-)/.test(f)),
       ['decoder-worker.js', 'loader.d.ts', 'loader.js', 'osteon_decoder.wasm']);
+    // osteon/element: its entry, and every file its bundle starts, beside it.
+    assert.equal(installed.exports['./element'].import, './dist/osteon-viewer.mjs');
+    const element = readFileSync(path.join(dist, 'osteon-viewer.mjs'), 'utf8').match(/element-[0-9a-f]{24}\.js/)?.[0];
+    assert.ok(element && files.includes(element), `osteon-viewer.mjs re-exports ${element}`);
+    const named = readFileSync(path.join(dist, element), 'utf8').match(/(render-worker|render-three|decoder-worker)-[0-9a-f]{24}\.js/g);
+    assert.deepEqual([...new Set(named.map((f) => f.replace(/-[0-9a-f]+\.js$/, '')))].sort(), ['decoder-worker', 'render-three', 'render-worker']);
+    for (const f of named) assert.ok(files.includes(f), `${f} is in dist/ beside the element`);
 
     // The bundled page: three and osteon resolved from the page's node_modules; the decoder's
     // two files hosted in decoder/ (the page says so with setDecoderPath).

@@ -199,7 +199,7 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
 
     // Click the skull.
     await page.mouse.click(skull.x, skull.y);
-    await page.waitForFunction(() => document.querySelector('#info-name').textContent === 'skull');
+    await page.waitForFunction(() => document.querySelector('osteon-viewer').shadowRoot.querySelector('#info-name').textContent === 'skull');
     assert.equal((await readState(page)).selected, 'skull');
     assert.match(await page.locator('#info-drawn').textContent(), /its own mesh/);
     assert.match(await page.locator('#info-error').textContent(), / mm$/);
@@ -207,7 +207,7 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     // Click the left femur: a mirrored copy of the right one, drawn by the mirrored InstancedMesh.
     const femur = await at('femur_l');
     await page.mouse.click(femur.x, femur.y);
-    await page.waitForFunction(() => document.querySelector('#info-name').textContent === 'femur_l');
+    await page.waitForFunction(() => document.querySelector('osteon-viewer').shadowRoot.querySelector('#info-name').textContent === 'femur_l');
     assert.equal(await page.locator('#info').getAttribute('data-instance'), 'true');
     assert.equal(await page.locator('#info').getAttribute('data-gpu-instanced'), 'true');
     assert.match(await page.locator('#info-drawn').textContent(), /instance of femur_r, mirrored/);

@@ -27,7 +27,8 @@ import {
   assignDrawn, createRecord, evictionOrder, frustumPlanes, gpuBytes, indexCopies, instanceSpheres, isRefined, multiply4,
   pixelsPerUnit, planLevels, projectedError, screenNeeds, sphereOutside, wantedLevel,
 } from '../viewer/refine.mjs';
-import { budgetFromParams } from '../viewer/state.mjs';
+import { encodeViewState, parseCamera, parseViewState } from '../viewer/share.mjs';
+import { budgetFromParams, budgetOf } from '../viewer/state.mjs';
 import { cli, osteon } from './browser_helpers.mjs';
 
 const skipCli = cli && existsSync(cli) ? false : 'the osteon CLI is not built (set OSTEON_CLI)';
@@ -1021,3 +1022,68 @@ function fakeResponse(bytes, { pieceSize, breakAfter = Infinity, onEnd = () => {
     },
   };
 }
+
+describe('share state (share.mjs)', () => {
+  test('a view round-trips exactly: every double, names with separators, quotes and other scripts', () => {
+    let seed = 12345;
+    const random = () => {
+      seed = (seed * 1103515245 + 12345) % 2147483648;
+      return seed / 2147483648;
+    };
+    for (let k = 0; k < 200; ++k) {
+      const value = () => (random() - 0.5) * 10 ** Math.floor(random() * 12 - 4);
+      const view = {
+        camera: { position: [value(), value(), value()], target: [value(), value(), value()], up: [value(), value(), 1 + random()], fov: 1 + random() * 170 },
+        selected: k % 3 ? 'os frontale, pars "squamosa" & co, 50%' : null,
+        hidden: k % 2 ? ['femur_l', 'a,b', 'ä/β=γ#', 'x&y'] : null,
+        only: k % 2 ? null : ['skull', 'rib #1'],
+        groupsOff: k % 4 ? ['left leg', 'arm,upper'] : [],
+        clip: k % 5 ? { axis: k % 3, position: k % 1001, flip: k % 2 === 0 } : null,
+      };
+      const text = encodeViewState(view);
+      assert.doesNotMatch(text, /[ #"]/, 'URL-safe');
+      const { view: back, errors } = parseViewState(`#${text}`);
+      assert.deepEqual(errors, []);
+      assert.deepEqual(back, { ...view, hidden: view.only ? null : view.hidden });
+      assert.equal(encodeViewState(back), text);
+    }
+  });
+
+  test('bad values are left out, each with a message; another version or none is ignored whole', () => {
+    const { view, errors } = parseViewState('v=1&cam=1,2,x,4,5,6&sel=skull&clip=3,10,0&hide=%E0%A4%A,femur_l&zoom=2&sel=pelvis');
+    assert.equal(view.camera, null);
+    assert.equal(view.selected, 'skull');
+    assert.equal(view.clip, null);
+    assert.deepEqual(view.hidden, ['femur_l']);
+    assert.equal(errors.length, 5, errors.join('\n'));
+    for (const word of ['camera "1,2,x', 'clip "3,10,0"', 'not URL-encoded', '"zoom" is not a field', '"sel" is given twice']) {
+      assert.ok(errors.some((e) => e.includes(word)), `${word}: ${errors}`);
+    }
+    assert.deepEqual(parseViewState('v=2&sel=skull'), { view: null, errors: ['version "2" is not 1: the view is ignored'] });
+    assert.equal(parseViewState('sel=skull').view, null);
+    assert.deepEqual(parseViewState(''), { view: null, errors: [] });
+    assert.deepEqual(parseViewState('#'), { view: null, errors: [] });
+    for (const clip of ['1,1001,0', '1,-1,0', '1,2.5,0', '1,2,2', '1,2', '']) {
+      assert.equal(parseViewState(`v=1&clip=${clip}`).view.clip, null, clip);
+    }
+    assert.equal(parseViewState('v=1&only=').view.only, null);
+    assert.equal(parseViewState('v=1&hide=a&only=b').view.hidden, null);
+  });
+
+  test('the camera attribute: position and target, then up, then the field of view', () => {
+    assert.deepEqual(parseCamera('1,2,3,4,5,6'), { camera: { position: [1, 2, 3], target: [4, 5, 6], up: null, fov: null }, error: null });
+    assert.deepEqual(parseCamera(' 1, 2,3,4,5,6,0,0,1 ').camera.up, [0, 0, 1]);
+    assert.equal(parseCamera('1,2,3,4,5,6,0,0,1,50').camera.fov, 50);
+    for (const bad of ['1,2,3,4,5', '1,2,3,4,5,6,7', '1,2,3,1,2,3', '1,2,3,4,5,6,0,0,0', '1,2,3,4,5,6,0,0,1,180', '1,2,3,4,5,6,0,0,1,0', 'a,b', '1,,3,4,5,6', 'Infinity,2,3,4,5,6']) {
+      const { camera, error } = parseCamera(bad);
+      assert.equal(camera, null, bad);
+      assert.match(error, /^camera "/, bad);
+    }
+  });
+
+  test('the budget from an element\'s attributes', () => {
+    assert.deepEqual(budgetOf('64', '500000'), { bytes: 64e6, triangles: 500000 });
+    assert.deepEqual(budgetOf(null, 'lots'), {});
+    assert.deepEqual(budgetOf('-1', undefined), {});
+  });
+});

@@ -1,20 +1,25 @@
 // SPDX-License-Identifier: Apache-2.0
-// The viewer's bootstrap: build.mjs minifies this classic script into index.html, after the
-// canvas, so it runs while the page is still being parsed, before any other script has arrived.
-// It starts everything the first bones need, at once and in parallel:
-//   - manifest.json (or ?manifest=URL), and once it is in, the first two chunk files (the stream
-//     keeps two in flight);
+// The viewer's bootstrap: startBoot() starts everything one viewer's first bones need, at once and
+// in parallel, before the rest of the viewer's code (main.mjs, element.mjs) has arrived:
+//   - manifest.json (or the manifest the element's src names), and once it is in, the first two
+//     chunk files (the stream keeps two in flight);
 //   - the WebAssembly decoder, fetched and compiled (off the main thread: WebAssembly.compile is
 //     asynchronous);
-//   - the render worker (render_worker.mjs, inlined in the page), given the canvas as an
-//     OffscreenCanvas and the manifest: it creates the WebGL context while three.js downloads,
-//     and draws the first frames without three.js (first_frames.mjs);
+//   - the render worker (render_worker.mjs; on the standalone page inlined in the page), given the
+//     canvas as an OffscreenCanvas and the manifest: it creates the WebGL context while three.js
+//     downloads, and draws the first frames without three.js (first_frames.mjs);
 //   - three.js's part of the renderer (render_three.mjs), fetched here and handed to the render
 //     worker as text: fetched by the worker, it would wait for the worker's own script to arrive
 //     and start (a round trip or more);
 //   - the decoder workers (hardware threads - 1, 1 to 4), so their script is in by the time the
 //     first component is.
-// The page's script (main.mjs) picks up what is in flight from window.osteonBoot:
+// Two callers, one code. The standalone page (index.html) runs bootPage() from an inline classic
+// script (build.mjs bundles this module with that call into the page, minified), right after its
+// <osteon-viewer> element, whose shadow root the parser has already made (declarative shadow
+// DOM): the page's downloads start while it is still being parsed. The element, on any other page
+// (or on the standalone page when the page's boot is for another package), calls startBoot()
+// itself once it is connected, with the files resolved beside its own script.
+// The viewer (main.mjs) picks up what is in flight from the boot object:
 //   { manifestUrl, manifest: Promise<text>, chunks: Map chunk index -> Promise<Response>,
 //     chunkStarts: Map chunk index -> performance.now() when its fetch started, chunksStarted
 //     (a Promise: settled once the first chunks are on their way, or will not be),
@@ -22,18 +27,34 @@
 //     worker, or a MessagePort to the renderer when it runs on the page), rendererPort (that case
 //     only: the renderer's end), offscreen, messages (what the renderer said before main.mjs set
 //     `deliver`, its handler), rendererStarted (a Promise: settled by the renderer's first
-//     message, or the worker's failure), rendererError }
-// Where a canvas cannot be handed to a worker (no OffscreenCanvas; or ?render=page), the
+//     message, or the worker's failure), rendererError, renderWorkerFile, page (true: started by
+//     bootPage) }
+// Where a canvas cannot be handed to a worker (no OffscreenCanvas; or render="page"), the
 // renderer runs on the page's main thread instead: main.mjs starts it on `rendererPort`.
 //
-// No dependencies and no modules: this must run before anything else has downloaded.
-/* global OSTEON_RENDER_WORKER_CODE, OSTEON_RENDER_WORKER_FILE, OSTEON_RENDER_THREE_FILE, OSTEON_DECODER_WORKER_FILE */
-(() => {
-  const params = new URLSearchParams(location.search);
-  const manifestUrl = new URL(params.get('manifest') || 'manifest.json', location.href);
+// No dependencies: this must run before anything else has downloaded.
+/// The manifest's URL for an element's `src`: a package folder ("pkg/", "pkg") or a manifest's own
+/// URL (ending in .json), relative to `base`.
+export function manifestUrlOf(src, base) {
+  const url = new URL(src || 'manifest.json', base);
+  if (!/\.json$/i.test(url.pathname)) {
+    if (!url.pathname.endsWith('/')) url.pathname += '/';
+    url.pathname += 'manifest.json';
+  }
+  return url.href;
+}
+
+/// Starts one viewer's downloads and workers; returns the boot object (above). `canvas`: the
+/// viewer's canvas element; `manifestUrl`: absolute; `files`: the absolute URLs of the viewer's
+/// files { renderWorker, renderThree, decoderWorker, wasm } and, optionally, `renderWorkerCode`
+/// (the render worker's script, started from a blob: URL without a round trip); `renderOnPage`:
+/// keep the renderer on the page's main thread; `background`: the view's colour, '#rrggbb'.
+export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPage = false, background }) {
+  const manifestUrl = new URL(manifestHref);
   const manifestName = manifestUrl.pathname.split('/').pop() || manifestUrl.href;
   const boot = {
     manifestUrl: manifestUrl.href,
+    renderWorkerFile: files.renderWorker,
     chunks: new Map(),
     chunkStarts: new Map(),
     messages: [],
@@ -42,7 +63,6 @@
     decoderError: null,
     timings: {},  // when the manifest and three.js's text arrived here (window.osteon.timings)
   };
-  window.osteonBoot = boot;
   const text = (e) => String((e && e.message) || e);
   // The renderer's messages: kept until main.mjs sets boot.deliver, then handed to it.
   const deliver = (message) => (boot.deliver ? boot.deliver(message) : boot.messages.push(message));
@@ -59,7 +79,7 @@
     },
   );
   boot.manifest.catch(() => {});  // main.mjs reports it
-  const three = fetch(OSTEON_RENDER_THREE_FILE, { priority: 'high' }).then(async (response) => {
+  const three = fetch(files.renderThree, { priority: 'high' }).then(async (response) => {
     if (!response.ok) throw new Error(`HTTP ${response.status}`);
     const code = await response.text();
     boot.timings.threeFetched = performance.now();
@@ -82,7 +102,7 @@
       boot.chunkStarts.set(k, performance.now());
     }
   }).catch(() => {});
-  boot.wasm = fetch('osteon_decoder.wasm', { priority: 'high' })
+  boot.wasm = fetch(files.wasm, { priority: 'high' })
     .then((response) => {
       if (!response.ok) throw new Error(`osteon: cannot load osteon_decoder.wasm: HTTP ${response.status}`);
       return response.arrayBuffer();
@@ -91,12 +111,12 @@
   boot.wasm.catch(() => {});  // main.mjs reports it
 
   let link = null;
-  const canvas = document.getElementById('canvas');
   const init = {
     type: 'init',
     pixelRatio: Math.min(window.devicePixelRatio || 1, 2),
     pageOrigin: performance.timeOrigin,
-    base: location.href,
+    base: files.renderThree,  // the three.js part's fallback import is resolved against it
+    background,
   };
   // The canvas's size, read once the worker is on its way: reading it lays the page out (tens of
   // milliseconds with the panel), and the worker's start need not wait for that.
@@ -106,16 +126,20 @@
     init.height = Math.max(1, Math.floor(rect.height));
   };
   boot.offscreen = false;
-  if (canvas.transferControlToOffscreen && params.get('render') !== 'page') {
+  if (canvas.transferControlToOffscreen && !renderOnPage) {
     let worker = null;
     try {
-      // The worker's script is inlined here (build.mjs): it starts now, not a round trip later.
-      // A content security policy may refuse blob: workers; then it comes from its file.
-      try {
-        worker = new Worker(URL.createObjectURL(new Blob([OSTEON_RENDER_WORKER_CODE], { type: 'text/javascript' })), { type: 'module' });
-      } catch (e) {
-        worker = new Worker(OSTEON_RENDER_WORKER_FILE, { type: 'module' });
+      // The worker's script is inlined in the standalone page (build.mjs): it starts now, not a
+      // round trip later. A content security policy may refuse blob: workers; then, and on other
+      // pages, it comes from its file.
+      if (files.renderWorkerCode) {
+        try {
+          worker = new Worker(URL.createObjectURL(new Blob([files.renderWorkerCode], { type: 'text/javascript' })), { type: 'module' });
+        } catch (e) {
+          worker = null;
+        }
       }
+      worker ??= moduleWorker(files.renderWorker);
       init.canvas = canvas.transferControlToOffscreen();
     } catch (e) {
       // No module workers, say: the renderer runs on the page instead (below).
@@ -155,7 +179,7 @@
   const workers = Math.max(1, Math.min(4, (navigator.hardwareConcurrency || 2) - 1));
   for (let i = 0; i < workers; ++i) {
     try {
-      const worker = new Worker(OSTEON_DECODER_WORKER_FILE, { type: 'module' });
+      const worker = moduleWorker(files.decoderWorker);
       // A worker that cannot start answers nothing; streaming.mjs refuses to wait on it.
       worker.addEventListener('error', (e) => {
         boot.decoderError ??= `the decoder worker failed: ${e.message || 'its script could not be loaded'}`;
@@ -174,4 +198,59 @@
     (code) => link.postMessage({ type: 'three', text: code }),
     (e) => link.postMessage({ type: 'three', error: text(e) }),
   );
-})();
+  return boot;
+}
+
+/// A module worker running the script at `url`. A worker's script must come from the page's own
+/// origin: for an element whose files are on another (a CDN), the worker starts from a blob: URL
+/// that imports the script (which that host must then serve with CORS).
+function moduleWorker(url) {
+  try {
+    return new Worker(url, { type: 'module' });
+  } catch (e) {
+    if (new URL(url).origin === location.origin) throw e;
+    const code = `import ${JSON.stringify(url)};`;
+    return new Worker(URL.createObjectURL(new Blob([code], { type: 'text/javascript' })), { type: 'module' });
+  }
+}
+
+/// The standalone page's bootstrap (index.html, inline, after its <osteon-viewer>): the page's URL
+/// parameters become the element's attributes (?manifest=URL its src, ?budgetMB= and
+/// ?budgetTriangles= its budget, ?render=page), the boot is started for the element and left on
+/// it for its script to pick up, and window.osteon shows the element's report.
+/* global OSTEON_RENDER_WORKER_CODE, OSTEON_RENDER_WORKER_FILE, OSTEON_RENDER_THREE_FILE, OSTEON_DECODER_WORKER_FILE */
+export function bootPage() {
+  const params = new URLSearchParams(location.search);
+  const element = document.querySelector('osteon-viewer');
+  let root = element.shadowRoot;
+  if (!root) {
+    // A browser without declarative shadow DOM left the markup in a <template>.
+    const template = element.querySelector('template');
+    root = element.attachShadow({ mode: 'open' });
+    root.append(template.content);
+    template.remove();
+  }
+  const src = manifestUrlOf(params.get('manifest') || element.getAttribute('src') || 'manifest.json', location.href);
+  element.setAttribute('src', src);
+  for (const [param, attribute] of [['budgetMB', 'budget-mb'], ['budgetTriangles', 'budget-triangles'], ['render', 'render']]) {
+    if (params.has(param)) element.setAttribute(attribute, params.get(param));
+  }
+  const file = (name) => new URL(name, location.href).href;
+  const boot = startBoot({
+    canvas: root.getElementById('canvas'),
+    manifestUrl: src,
+    files: {
+      renderWorker: file(OSTEON_RENDER_WORKER_FILE),
+      renderWorkerCode: OSTEON_RENDER_WORKER_CODE,
+      renderThree: file(OSTEON_RENDER_THREE_FILE),
+      decoderWorker: file(OSTEON_DECODER_WORKER_FILE),
+      wasm: file('osteon_decoder.wasm'),
+    },
+    renderOnPage: element.getAttribute('render') === 'page',
+    background: element.getAttribute('background') || undefined,
+  });
+  boot.page = true;
+  element[Symbol.for('osteon.boot')] = boot;
+  Object.defineProperty(window, 'osteon', { configurable: true, get: () => element.report });
+}
+

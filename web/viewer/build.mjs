@@ -1,14 +1,21 @@
 // SPDX-License-Identifier: Apache-2.0
 // Builds the viewer into build/viewer/ (repository root; `osteon pack` copies that folder into every
 // package):
-//   index.html                       the page, with its style (viewer.css) and its bootstrap
-//                                    (boot.js) inlined, minified: nothing blocks it from starting
-//                                    the downloads the first bones need
-//   viewer-<h>.js                    the page's script (main.mjs and the modules it wires:
-//                                    panel, camera controls, picking, streams)
+//   index.html                       the standalone page: one <osteon-viewer> filling the window,
+//                                    its shadow root declared in the page with the style
+//                                    (viewer.css) inlined, and the bootstrap (boot.js bootPage)
+//                                    inlined, minified: nothing blocks it from starting the
+//                                    downloads the first bones need
+//   element-<h>.js                   the <osteon-viewer> element (element.mjs and the modules it
+//                                    wires: the viewer, panel, camera controls, picking, streams,
+//                                    the bootstrap, the markup and style): the page's script, and
+//                                    the one file another page imports to embed viewers
+//   osteon-viewer.mjs                the element under a name that does not change (re-exports
+//                                    element-<h>.js), for a package's exports
 //   render-worker-<h>.js             the render worker (render_worker.mjs), small so that it starts
 //                                    early; also inlined in index.html, whose bootstrap starts it
-//                                    from a blob: URL (this file is for pages that refuse those)
+//                                    from a blob: URL (this file is for other pages, and for
+//                                    pages that refuse blob: workers)
 //   render-three-<h>.js              what it imports next: three.js's renderer and the scene
 //                                    (render_three.mjs)
 //   decoder-worker-<h>.js            the decoder worker (web/decoder/worker.mjs and the wrapper)
@@ -100,26 +107,39 @@ async function add(entry, name, define = {}, plugins = []) {
 const decoderWorker = await add('../decoder/worker.mjs', 'decoder-worker');
 const renderThree = await add('render_three.mjs', 'render-three');
 const renderWorker = await add('render_worker.mjs', 'render-worker', { OSTEON_RENDER_THREE_FILE: `./${renderThree}` });
-const script = await add('main.mjs', 'viewer', { OSTEON_RENDER_WORKER_FILE: `./${renderWorker}` }, [threePage]);
 files.set('osteon_decoder.wasm', readFileSync(wasmPath));
 
 // The style and the bootstrap go inside the page: a stylesheet would hold the bootstrap back
 // until it had arrived (scripts wait for the style sheets before them), costing a round trip.
 const style = (await bundle('viewer.css')).toString().trim();
-const boot = (await esbuild.transform(readFileSync(join(here, 'boot.js'), 'utf8'), {
-  loader: 'js',
-  minify: true,
-  target: 'es2020',
-  define: {
-    OSTEON_RENDER_WORKER_FILE: JSON.stringify(`./${renderWorker}`),
-    // Escaped so that the page's <script> cannot end inside it.
-    OSTEON_RENDER_WORKER_CODE: JSON.stringify(files.get(renderWorker).toString()).replaceAll('</', '<\\/'),
-    OSTEON_RENDER_THREE_FILE: JSON.stringify(`./${renderThree}`),
-    OSTEON_DECODER_WORKER_FILE: JSON.stringify(`./${decoderWorker}`),
-  },
-})).code.trim();
-if (/<\/(script|style)/i.test(boot + style)) fail('the inlined style or bootstrap contains a closing tag');
 let html = readFileSync(join(here, 'index.html'), 'utf8');
+// The element's shadow root, as the page declares it: the element's markup on other pages.
+const shadow = /<template shadowrootmode="open">([\s\S]*)<\/template><\/osteon-viewer>/.exec(html);
+if (!shadow) fail('web/viewer/index.html lacks <osteon-viewer><template shadowrootmode="open">...</template></osteon-viewer>');
+const markup = shadow[1].replace('%VIEWER_CSS%', () => style).replace(/>\s+</g, '><').trim();
+const fileNames = {
+  OSTEON_RENDER_WORKER_FILE: `./${renderWorker}`,
+  OSTEON_RENDER_THREE_FILE: `./${renderThree}`,
+  OSTEON_DECODER_WORKER_FILE: `./${decoderWorker}`,
+};
+const script = await add('element.mjs', 'element', { ...fileNames, OSTEON_VIEWER_MARKUP: markup }, [threePage]);
+files.set('osteon-viewer.mjs', Buffer.from(`// SPDX-License-Identifier: Apache-2.0\n// The <osteon-viewer> element (web/viewer/element.mjs).\nexport * from './${script}';\n`));
+
+// The page's bootstrap: boot.js's bootPage, called at once, as a classic script.
+const boot = (await bundle('boot.js', {
+  stdin: { contents: "import { bootPage } from './boot.js';\nbootPage();\n", resolveDir: here, loader: 'js' },
+  entryPoints: undefined,
+  format: 'iife',
+  target: 'es2020',
+  legalComments: 'none',
+  define: Object.fromEntries(Object.entries({
+    ...fileNames,
+    OSTEON_RENDER_WORKER_CODE: files.get(renderWorker).toString(),
+  }).map(([k, v]) => [k, JSON.stringify(v)])),
+})).toString().trim()
+  // Escaped so that the page's <script> cannot end inside it.
+  .replaceAll('</', '<\\/');
+if (/<\/(script|style)/i.test(boot + style)) fail('the inlined style or bootstrap contains a closing tag');
 for (const [marker, text] of [['%VIEWER_JS%', script], ['%VIEWER_CSS%', style], ['%BOOT_JS%', boot]]) {
   if (!html.includes(marker)) fail(`web/viewer/index.html lacks the marker ${marker}`);
   html = html.replaceAll(marker, () => text);
@@ -141,8 +161,9 @@ for (const [name, bytes] of files) {
   writeFileSync(join(out, name), bytes);
   const gz = gzipSync(bytes, { level: 9 });
   writeFileSync(join(out, `${name}.gz`), gz);
-  // The render worker's file is fetched only where blob: workers are refused (it is in the page).
-  if (name !== renderWorker) {
+  // The standalone page's download: the render worker's file is fetched only where blob: workers
+  // are refused (it is in the page), the stable-named entry only by other pages.
+  if (name !== renderWorker && name !== 'osteon-viewer.mjs') {
     total += bytes.length;
     totalGz += gz.length;
   }
@@ -152,4 +173,4 @@ const width = Math.max(...rows.map((r) => r[0].length));
 for (const [name, size, gz] of rows) {
   console.log(`osteon: ${out}/${name.padEnd(width)} ${String(size).padStart(8)} bytes, gzip -9 ${String(gz).padStart(7)}`);
 }
-console.log(`osteon: viewer download (every file but ${renderWorker}, inlined in the page; gzip -9): ${totalGz} bytes (${total} uncompressed)`);
+console.log(`osteon: viewer download (every file but ${renderWorker}, inlined in the page, and osteon-viewer.mjs; gzip -9): ${totalGz} bytes (${total} uncompressed)`);

@@ -198,11 +198,11 @@ export function createFirstFrames(gl, manifest) {
     /// Draws every component added, each instance of a shown part, on a cleared canvas.
     /// `view`: { camera (the page's 'camera' message), width, height (the drawing buffer's
     /// pixels), hidden (Uint8Array per part, or null), highlight (a part id or -1), clip (the
-    /// page's 'clip' message, or null) }.
-    draw({ camera, width, height, hidden, highlight, clip }) {
+    /// page's 'clip' message, or null), background ('#rrggbb'; absent: the viewer's default) }.
+    draw({ camera, width, height, hidden, highlight, clip, background }) {
       const { view: viewM, projection } = cameraMatrices(camera);
       gl.viewport(0, 0, width, height);
-      const bg = hexRgb(kBackground);
+      const bg = hexRgb(background ? Number.parseInt(background.slice(1), 16) : kBackground);
       gl.clearColor(bg[0], bg[1], bg[2], 1);
       gl.clearDepth(1);
       gl.enable(gl.DEPTH_TEST);

@@ -1,14 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
-// The page's panel (index.html): the error box, the progress bar and status line, the statistics,
-// the selected bone's info, the list of bones with its search and checkboxes, the groups, the
-// clipping plane, and the buttons. Every function takes the page's state (state.mjs); wirePanel
+// The viewer's panel (index.html's markup, in the element's shadow root): the error box, the
+// progress bar and status line, the statistics, the selected bone's info, the list of bones with
+// its search and checkboxes, the groups, the clipping plane, "Copy link", and the buttons. Every function takes the viewer's state (state.mjs); wirePanel
 // attaches the listeners once.
 
 import { drawInfo, drawStats, findPart, formatLength } from './manifest.mjs';
-import { partVisible } from './state.mjs';
+import { emit, partVisible, viewChanged } from './state.mjs';
 import { fitAll, framePart, requestRender, send, sendParts } from './view.mjs';
 
-export const $ = (id) => document.getElementById(id);
+/// The element `id` of this viewer's markup (its shadow root: several viewers share a page).
+export const $ = (state, id) => state.root.getElementById(id);
 
 // ---------------------------------------------------------------------------------------------
 // Status, errors, statistics
@@ -18,8 +19,8 @@ export function reportError(state, message) {
   state.report.errors.push(message);
   const li = document.createElement('li');
   li.textContent = message;
-  $('error-list').append(li);
-  $('errors').hidden = false;
+  $(state, 'error-list').append(li);
+  $(state, 'errors').hidden = false;
 }
 
 function megabytes(bytes) {
@@ -46,20 +47,20 @@ export function scheduleStatus(state) {
 export function updateStatus(state) {
   const r = state.report;
   const settledCount = r.componentsLoaded + r.componentsFailed;
-  $('progress').max = Math.max(1, r.componentsTotal);
-  $('progress').value = settledCount;
+  $(state, 'progress').max = Math.max(1, r.componentsTotal);
+  $(state, 'progress').value = settledCount;
   const failed = r.componentsFailed ? `, ${r.componentsFailed} failed` : '';
   if (r.done) {
     const seconds = ((r.allLoadedMs ?? performance.now()) / 1000).toFixed(2);
     const levels = state.levels?.hasLevels ? ` · ${r.levelsLoaded} of ${r.levelsTotal} levels` : '';
-    $('progress-text').textContent =
+    $(state, 'progress-text').textContent =
       `${r.componentsLoaded} of ${r.componentsTotal} components${failed}${levels} · ${megabytes(r.bytesLoaded)} · ${seconds} s`;
-    $('status').classList.add('done');
+    $(state, 'status').classList.add('done');
   } else {
-    $('progress-text').textContent =
+    $(state, 'progress-text').textContent =
       `${settledCount} / ${r.componentsTotal} components${failed} · ${megabytes(r.bytesLoaded)} / ${megabytes(r.bytesTotal)}`;
   }
-  $('stats').textContent =
+  $(state, 'stats').textContent =
     `${r.instancesDrawn.toLocaleString('en')} of ${r.instancesTotal.toLocaleString('en')} instances · ` +
     `${r.trianglesDrawn.toLocaleString('en')} triangles · ${r.drawCalls} draw calls` +
     (state.levels?.hasLevels ? ` · ${megabytes(r.gpuBytes)} of ${megabytes(r.budget.bytes)} GPU memory` : '');
@@ -82,18 +83,49 @@ export function updateStats(state) {
 // ---------------------------------------------------------------------------------------------
 // Selection, visibility, lists
 
-function applyVisibility(state) {
+/// Shows what hiddenParts and groupOn say: the list's checkboxes, the renderer's parts, the counts.
+export function applyVisibility(state) {
   for (const row of state.partRows) {
     const visible = partVisible(state, row.part.id);
     row.checkbox.checked = visible;
     row.li.classList.toggle('hidden-part', !visible);
   }
   for (const [group, on] of state.groupOn) {
-    const box = document.querySelector(`#group-list input[data-group="${CSS.escape(group)}"]`);
+    const box = state.root.querySelector(`#group-list input[data-group="${CSS.escape(group)}"]`);
     if (box) box.checked = on;
   }
   sendParts(state);
   updateStats(state);
+  viewChanged(state);
+}
+
+/// Hides part `id`.
+export function hidePart(state, id) {
+  state.hiddenParts.add(id);
+  applyVisibility(state);
+}
+
+/// Shows part `id` (and its group, if that was switched off).
+export function showPart(state, id) {
+  state.hiddenParts.delete(id);
+  state.groupOn.set(state.manifest.parts[id].group, true);
+  applyVisibility(state);
+}
+
+/// Shows part `id` alone.
+export function isolatePart(state, id) {
+  const { manifest, hiddenParts } = state;
+  for (const part of manifest.parts) if (part.id !== id) hiddenParts.add(part.id);
+  hiddenParts.delete(id);
+  state.groupOn.set(manifest.parts[id].group, true);
+  applyVisibility(state);
+}
+
+/// Shows every part and every group.
+export function showAllParts(state) {
+  state.hiddenParts.clear();
+  for (const group of state.groupOn.keys()) state.groupOn.set(group, true);
+  applyVisibility(state);
 }
 
 function drawnAs(state, part) {
@@ -144,32 +176,40 @@ export function showInfo(state) {
   const { manifest, selectedPart } = state;
   const part = selectedPart >= 0 ? manifest.parts[selectedPart] : null;
   state.report.selected = part ? part.displayName : null;
-  $('info-name').textContent = part ? part.displayName : 'No bone selected';
-  $('info-hint').hidden = !!part;
-  $('info-fields').hidden = !part;
-  for (const id of ['frame', 'hide', 'isolate']) $(id).disabled = !part;
+  $(state, 'info-name').textContent = part ? part.displayName : 'No bone selected';
+  $(state, 'info-hint').hidden = !!part;
+  $(state, 'info-fields').hidden = !part;
+  for (const id of ['frame', 'hide', 'isolate']) $(state, id).disabled = !part;
   for (const row of state.partRows) row.button.setAttribute('aria-current', String(row.part.id === selectedPart));
   if (!part) return;
   const bound = Math.max(...manifest.instancesOfPart[part.id].map((i) => manifest.instances[i].errorBound));
   const drawn = drawnAs(state, part);
-  $('info-group').textContent = part.group || '(none)';
-  $('info-triangles').textContent = part.triangles.toLocaleString('en');
-  $('info-error').textContent = Number.isFinite(bound) ? formatLength(bound, manifest.unit) : '–';
-  $('info-drawn').textContent = drawn.text;
+  $(state, 'info-group').textContent = part.group || '(none)';
+  $(state, 'info-triangles').textContent = part.triangles.toLocaleString('en');
+  $(state, 'info-error').textContent = Number.isFinite(bound) ? formatLength(bound, manifest.unit) : '–';
+  $(state, 'info-drawn').textContent = drawn.text;
   const level = levelText(state, drawn.info);
-  $('info-level').textContent = level.text;
-  $('info').dataset.level = level.level === null ? '' : String(level.level);
-  $('info').dataset.instance = String(drawn.instance);
-  $('info').dataset.gpuInstanced = String(drawn.gpuInstanced);
-  $('info-source').textContent = part.source || part.name;
+  $(state, 'info-level').textContent = level.text;
+  $(state, 'info').dataset.level = level.level === null ? '' : String(level.level);
+  $(state, 'info').dataset.instance = String(drawn.instance);
+  $(state, 'info').dataset.gpuInstanced = String(drawn.gpuInstanced);
+  $(state, 'info-source').textContent = part.source || part.name;
 }
 
 /// Selects part `partId` (-1: none): highlighted, its info shown, framed if `frame`, its row
 /// scrolled into view if `scroll`.
 export function select(state, partId, { frame = false, scroll = true } = {}) {
+  const changed = state.selectedPart !== partId;
   state.selectedPart = partId;
   sendParts(state);
   showInfo(state);
+  if (changed) {
+    const part = partId >= 0 ? state.manifest.parts[partId] : null;
+    emit(state, 'select', part
+      ? { name: part.displayName, partName: part.name, part: part.id, group: part.group, source: part.source || null, triangles: part.triangles }
+      : { name: null, partName: null, part: -1, group: null, source: null, triangles: 0 });
+    viewChanged(state);
+  }
   if (partId >= 0) {
     if (frame) framePart(state, partId);
     const row = state.partRows.find((r) => r.part.id === partId);
@@ -187,7 +227,7 @@ export function selectByName(state, name, options) {
 
 function buildLists(state) {
   const { manifest, partRows } = state;
-  const list = $('part-list');
+  const list = $(state, 'part-list');
   const rows = document.createDocumentFragment();
   const sorted = [...manifest.parts].sort((a, b) => a.displayName.localeCompare(b.displayName, 'en', { numeric: true }));
   for (const part of sorted) {
@@ -244,7 +284,7 @@ export function buildListsSoon(state) {
 /// The group checkboxes, all on, once the manifest is read.
 export function buildGroups(state) {
   const { manifest, groupOn } = state;
-  const groups = $('group-list');
+  const groups = $(state, 'group-list');
   for (const group of [...manifest.groups].sort()) {
     groupOn.set(group, true);
     const label = document.createElement('label');
@@ -264,14 +304,14 @@ export function buildGroups(state) {
 
 function filterList(state) {
   const { partRows } = state;
-  const q = $('search').value.trim().toLowerCase();
+  const q = $(state, 'search').value.trim().toLowerCase();
   let shown = 0;
   for (const row of partRows) {
     const match = !q || row.part.displayName.toLowerCase().includes(q) || row.part.name.toLowerCase().includes(q);
     row.li.hidden = !match;
     shown += match;
   }
-  $('part-count').textContent = q ? `${shown} of ${partRows.length} match` : `${partRows.length} bones`;
+  $(state, 'part-count').textContent = q ? `${shown} of ${partRows.length} match` : `${partRows.length} bones`;
   return partRows.filter((r) => !r.li.hidden);
 }
 
@@ -282,20 +322,58 @@ function filterList(state) {
 export function updateClip(state) {
   const { manifest } = state;
   if (!manifest) return;
-  const on = $('clip-on').checked;
-  const axis = Number($('clip-axis').value);
-  const t = Number($('clip-pos').value) / 1000;
+  const on = $(state, 'clip-on').checked;
+  const axis = Number($(state, 'clip-axis').value);
+  const t = Number($(state, 'clip-pos').value) / 1000;
   const lo = manifest.bounds.min[axis];
   const hi = manifest.bounds.max[axis];
   const at = lo + t * (hi - lo);
-  const sign = $('clip-flip').checked ? -1 : 1;
+  const sign = $(state, 'clip-flip').checked ? -1 : 1;
   // Three.js draws the side where normal . p + constant >= 0: keep p[axis] >= at, or <= at.
   const normal = [0, 0, 0];
   normal[axis] = sign;
-  $('clip-value').textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
+  $(state, 'clip-value').textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
   state.clip = { on, normal, constant: -sign * at };
   send(state, { type: 'clip', on, normal, constant: -sign * at });
   requestRender(state);
+  viewChanged(state);
+}
+
+/// The clipping plane's controls as a value: { on, axis (0..2), position (the slider's 0..1000
+/// along the package's box), flip }.
+export function clipControls(state) {
+  return {
+    on: $(state, 'clip-on').checked,
+    axis: Number($(state, 'clip-axis').value),
+    position: Number($(state, 'clip-pos').value),
+    flip: $(state, 'clip-flip').checked,
+  };
+}
+
+/// Sets the clipping plane's controls (clipControls' value) and sends the plane.
+export function setClipControls(state, { on, axis, position, flip }) {
+  $(state, 'clip-on').checked = on;
+  $(state, 'clip-axis').value = String(axis);
+  $(state, 'clip-pos').value = String(position);
+  $(state, 'clip-flip').checked = flip;
+  updateClip(state);
+}
+
+/// Puts the view's link in the share field and on the clipboard; where the clipboard refuses
+/// (no permission, not a secure page), the field's text is selected for the person to copy.
+export async function copyLink(state) {
+  const field = $(state, 'share-link');
+  const link = state.shareLink();
+  field.value = link;
+  field.hidden = false;
+  try {
+    await navigator.clipboard.writeText(link);
+    $(state, 'share-note').textContent = 'Link copied';
+  } catch (e) {
+    field.focus();
+    field.select();
+    $(state, 'share-note').textContent = 'Press Ctrl+C (⌘C) to copy the link';
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -303,37 +381,22 @@ export function updateClip(state) {
 
 /// Attaches the panel's listeners (once, before the manifest is read: each waits for it).
 export function wirePanel(state) {
-  $('fit').addEventListener('click', () => fitAll(state));
-  $('panel-toggle').addEventListener('click', () => {
-    const collapsed = $('panel').classList.toggle('collapsed');
-    $('panel-toggle').setAttribute('aria-expanded', String(!collapsed));
+  $(state, 'fit').addEventListener('click', () => fitAll(state));
+  $(state, 'panel-toggle').addEventListener('click', () => {
+    const collapsed = $(state, 'panel').classList.toggle('collapsed');
+    $(state, 'panel-toggle').setAttribute('aria-expanded', String(!collapsed));
   });
-  $('frame').addEventListener('click', () => state.selectedPart >= 0 && framePart(state, state.selectedPart));
-  $('hide').addEventListener('click', () => {
-    if (state.selectedPart < 0) return;
-    state.hiddenParts.add(state.selectedPart);
-    applyVisibility(state);
-  });
-  $('isolate').addEventListener('click', () => {
-    const { manifest, selectedPart, hiddenParts } = state;
-    if (selectedPart < 0) return;
-    for (const part of manifest.parts) if (part.id !== selectedPart) hiddenParts.add(part.id);
-    hiddenParts.delete(selectedPart);
-    state.groupOn.set(manifest.parts[selectedPart].group, true);
-    applyVisibility(state);
-  });
-  $('show-all').addEventListener('click', () => {
-    if (!state.manifest) return;
-    state.hiddenParts.clear();
-    for (const group of state.groupOn.keys()) state.groupOn.set(group, true);
-    applyVisibility(state);
-  });
-  $('search').addEventListener('input', () => filterList(state));
-  $('search').addEventListener('keydown', (e) => {
+  $(state, 'frame').addEventListener('click', () => state.selectedPart >= 0 && framePart(state, state.selectedPart));
+  $(state, 'hide').addEventListener('click', () => state.selectedPart >= 0 && hidePart(state, state.selectedPart));
+  $(state, 'isolate').addEventListener('click', () => state.selectedPart >= 0 && isolatePart(state, state.selectedPart));
+  $(state, 'show-all').addEventListener('click', () => state.manifest && showAllParts(state));
+  $(state, 'copy-link').addEventListener('click', () => state.manifest && copyLink(state));
+  $(state, 'search').addEventListener('input', () => filterList(state));
+  $(state, 'search').addEventListener('keydown', (e) => {
     if (e.key !== 'Enter' || !state.manifest) return;
     const first = filterList(state)[0];
     if (first) select(state, first.part.id, { frame: true });
   });
-  for (const id of ['clip-on', 'clip-axis', 'clip-flip']) $(id).addEventListener('change', () => updateClip(state));
-  $('clip-pos').addEventListener('input', () => updateClip(state));
+  for (const id of ['clip-on', 'clip-axis', 'clip-flip']) $(state, id).addEventListener('change', () => updateClip(state));
+  $(state, 'clip-pos').addEventListener('input', () => updateClip(state));
 }

@@ -33,15 +33,16 @@ import { createPackageScene } from './scene.mjs';
 
 /// Creates the view of `manifest` (manifest.mjs) on `canvas` (an OffscreenCanvas or a canvas
 /// element) with `context`, a WebGL 2 context made on it with the renderer's attributes.
-/// `width`, `height`: the canvas's size in CSS pixels; `pixelRatio`: device pixels per CSS pixel.
-export function createView({ canvas, context, manifest, width, height, pixelRatio }) {
+/// `width`, `height`: the canvas's size in CSS pixels; `pixelRatio`: device pixels per CSS pixel;
+/// `background`: the scene's colour ('#rrggbb' or a number; default camera.mjs kBackground).
+export function createView({ canvas, context, manifest, width, height, pixelRatio, background = kBackground }) {
   const renderer = new WebGLRenderer({ canvas, context, antialias: true });
   // The context may have drawn the first frames (first_frames.mjs): three.js's cached state
   // starts from the context's defaults.
   renderer.resetState();
   renderer.localClippingEnabled = true;  // the clipping plane is set per material
   const scene = new Scene();
-  scene.background = new Color(kBackground);
+  scene.background = new Color(background ?? kBackground);
   const camera = new PerspectiveCamera(kFovDeg, Math.max(width, 1) / Math.max(height, 1), 0.1, 1000);
   const root = new Group();
   scene.add(root, camera);
@@ -129,6 +130,11 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
     },
 
     setSize,
+
+    /// The background colour ('#rrggbb').
+    setBackground(color) {
+      scene.background.set(color);
+    },
 
     setParts({ hidden, highlight }) {
       packageScene.setVisibility((part) => !hidden[part]);

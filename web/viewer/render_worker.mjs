@@ -31,7 +31,8 @@
 // module and calls startRenderer() with a MessagePort and the canvas.
 //
 // Messages from the page (all on `port`):
-//   { type: 'init', canvas?, width, height, pixelRatio, pageOrigin, base (the page's URL) }
+//   { type: 'init', canvas?, width, height, pixelRatio, pageOrigin, base (the URL the viewer's
+//     files are beside), background ('#rrggbb', or absent: camera.mjs kBackground) }
 //   { type: 'manifest', text } or { type: 'manifest', error }   manifest.json, fetched by the page
 //   { type: 'three', text } or { type: 'three', error }         render_three.mjs, fetched by the page
 //   { type: 'mesh', ids, mesh }             a decoded component (several ids: byte-identical
@@ -45,6 +46,7 @@
 //   { type: 'size', width, height, pixelRatio }
 //   { type: 'parts', hidden (Uint8Array, 1 per hidden part), highlight (part id or -1) }
 //   { type: 'clip', on, normal, constant }
+//   { type: 'background', color }          the view's background, '#rrggbb'
 //   { type: 'pick', id, ndc: [x, y] }      answered by { type: 'picked', id, part }
 //   { type: 'render', seq }                 draw; the frame reports the seq
 //   { type: 'shown', frame }                the page has had an animation frame since that frame
@@ -271,6 +273,7 @@ function drawFirstFrame(r) {
       hidden: latest.get('parts')?.hidden ?? null,
       highlight: latest.get('parts')?.highlight ?? -1,
       clip: latest.get('clip') ?? null,
+      background: latest.get('background')?.color ?? init.background,
     });
   } catch (e) {
     r.firstFramesOff = true;
@@ -310,6 +313,7 @@ function applySettings(r) {
     else if (type === 'camera') view.setCamera(message);
     else if (type === 'parts') view.setParts(message);
     else if (type === 'clip') view.setClip(message);
+    else if (type === 'background') view.setBackground(message.color);
   }
   r.settings.clear();
 }
@@ -324,7 +328,7 @@ function startView(r) {
     r.firstFrames = null;
   }
   try {
-    r.view = r.three.createView({ canvas: r.canvas, context: r.context, manifest: r.manifest, width: init.width, height: init.height, pixelRatio: init.pixelRatio });
+    r.view = r.three.createView({ canvas: r.canvas, context: r.context, manifest: r.manifest, width: init.width, height: init.height, pixelRatio: init.pixelRatio, background: init.background });
     mark(r, 'view');
     applySettings(r);
     // The bone material's programs, compiled before the first mesh needs them (and drawn once,
@@ -462,6 +466,7 @@ function handle(r, message) {
     case 'size':
     case 'parts':
     case 'clip':
+    case 'background':
       r.settings.set(message.type, message);
       r.latest.set(message.type, message);
       r.latestChanged = true;

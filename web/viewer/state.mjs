@@ -1,18 +1,33 @@
 // SPDX-License-Identifier: Apache-2.0
-// The viewer page's state: one object, made by createViewerState and passed to every function of
-// the page's modules (view.mjs, panel.mjs, picking.mjs, streaming.mjs); no module keeps mutable
-// state of its own. Its `report` is what tests and benchmarks read: exposeState publishes it, with
-// a few functions, as window.osteon.
+// One viewer's state: one object, made by createViewerState and passed to every function of the
+// viewer's modules (view.mjs, panel.mjs, picking.mjs, streaming.mjs, share.mjs); no module keeps
+// mutable state of its own, and none looks its elements up in the document or keeps a page global, so several
+// <osteon-viewer> elements (element.mjs) live on one page side by side. Its `report` is what tests
+// and benchmarks read: the element's `report`, which the standalone page also shows as
+// window.osteon.
 
 import { kBackground } from './camera.mjs';
 
-/// A fresh state for the page. `boot` is window.osteonBoot (boot.js), `canvas` the 3D view's
-/// canvas element, `camera` the page's three.js PerspectiveCamera (the renderer draws with a copy).
-export function createViewerState({ boot, canvas, camera, budget = {} }) {
+/// A fresh state for one viewer. `boot` is what boot.js startBoot started for it, `host` the
+/// <osteon-viewer> element (its events are dispatched there), `root` its shadow root (the panel's
+/// elements are looked up there), `canvas` the 3D view's canvas element, `camera` the viewer's
+/// three.js PerspectiveCamera (the renderer draws with a copy).
+export function createViewerState({ boot, host = null, root, canvas, camera, budget = {}, background = kBackground }) {
   return {
     boot,
+    host,
+    root,
     canvas,
     camera,
+    resizeObserver: null,    // on the view, once started
+    onViewChanged: null,     // called when the camera, selection, visibility or clipping change
+    shareLink: null,         // () => the link that opens this view (main.mjs)
+    pendingViews: [],        // views asked for before the manifest was read (main.mjs applyPending)
+    shareArmed: false,       // the view the viewer opened with is set: changes count from here
+    startView: null,         // that view (share.mjs captureView)
+    viewMoved: false,        // the view has differed from it (the page's hash is written from then on)
+    maxDistance: Infinity,   // how far the controls may zoom out (camera.mjs packageView)
+    destroyed: false,
     link: null,              // the renderer: a Worker or a MessagePort (boot.js)
     manifest: null,          // manifest.mjs parseManifest, once read
     controls: null,          // OrbitControls, once the manifest has fitted the camera
@@ -73,18 +88,28 @@ export function createViewerState({ boot, canvas, camera, budget = {} }) {
       renderer: null,          // 'worker' (OffscreenCanvas) or 'page'
       timings: {},             // the page's bootstrap: manifest, threeFetched; the renderer's start: started, context, firstFrames (absent when three.js drew the first frame), three, view, compiled
       unit: null,
-      background: kBackground,
+      background,
       selected: null,          // the selected part's display name
     },
   };
 }
 
-/// Publishes `state.report` as window.osteon, with the functions tests and benchmarks call:
-/// `api` holds screenPositionOf(name), screenBoundsOf(name?), select(name), frame(name),
-/// setBudget({ bytes, triangles }), setMaxPixelError(px) and levelPixels(componentId).
-/// window.osteon is the report itself, so it reads what the page's modules write there.
+/// Adds to `state.report` the functions tests and benchmarks call (`api`: screenPositionOf(name),
+/// screenBoundsOf(name?), select(name), frame(name), setBudget({ bytes, triangles }),
+/// setMaxPixelError(px), levelPixels(componentId), ...) and returns it: the report itself, so
+/// it reads what the viewer's modules write there.
 export function exposeState(state, api) {
-  window.osteon = Object.assign(state.report, api);
+  return Object.assign(state.report, api);
+}
+
+/// Dispatches a CustomEvent `type` with `detail` on the viewer's element.
+export function emit(state, type, detail) {
+  state.host?.dispatchEvent(new CustomEvent(type, { detail }));
+}
+
+/// The view (camera, selection, visibility, clipping) changed: the share state follows (main.mjs).
+export function viewChanged(state) {
+  state.onViewChanged?.();
 }
 
 /// Whether part `id` is shown: neither hidden itself nor in a group that is switched off.
@@ -96,10 +121,16 @@ export function partVisible(state, id) {
 /// The memory budget a page's URL asks for: ?budgetMB=64 (10^6 bytes) and ?budgetTriangles=500000;
 /// absent or not a number: the default (levels.mjs kDefaultBudget).
 export function budgetFromParams(params) {
+  return budgetOf(params.get('budgetMB'), params.get('budgetTriangles'));
+}
+
+/// The budget of `mb` megabytes (10^6 bytes) and `triangles` (strings, as an attribute or a URL
+/// gives them; null, absent or not a non-negative number: the default).
+export function budgetOf(mb, triangles) {
   const budget = {};
-  const mb = Number.parseFloat(params.get('budgetMB') ?? '');
-  const triangles = Number.parseFloat(params.get('budgetTriangles') ?? '');
-  if (Number.isFinite(mb) && mb >= 0) budget.bytes = Math.round(mb * 1e6);
-  if (Number.isFinite(triangles) && triangles >= 0) budget.triangles = Math.round(triangles);
+  const bytes = Number.parseFloat(mb ?? '');
+  const count = Number.parseFloat(triangles ?? '');
+  if (Number.isFinite(bytes) && bytes >= 0) budget.bytes = Math.round(bytes * 1e6);
+  if (Number.isFinite(count) && count >= 0) budget.triangles = Math.round(count);
   return budget;
 }

@@ -5,12 +5,13 @@
 // every component is drawn at its first level, the finer levels follow as the view asks for them
 // (levels.mjs). Also the bookkeeping of what has loaded: the per-component fetch log, the counts
 // in window.osteon, and the end of loading (every component drawn or failed, or nothing can be
-// drawn). Every function takes the page's state (state.mjs).
+// drawn). Every function takes the viewer's state (state.mjs).
 
 import { createDecoderPool } from '../decoder/pool.mjs';
 import { createLevelLoader } from './levels.mjs';
 import { buildListsSoon, reportError, scheduleStatus, showInfo, updateStats, updateStatus } from './panel.mjs';
 import { createChunkStream, planChunks } from './stream.mjs';
+import { emit } from './state.mjs';
 import { send } from './view.mjs';
 
 const kChunksInFlight = 2;
@@ -80,6 +81,21 @@ export function finish(state, at) {
   updateStatus(state);
   buildListsSoon(state);
   if (!state.fatal) state.levels?.start(at);
+  // 'load' once every component is drawn or has failed; 'error' when nothing more can be drawn.
+  emit(state, state.fatal ? 'error' : 'load', { ...progressOf(state), message: state.fatal ? state.report.errors.at(-1) : null });
+}
+
+/// The counts a 'progress' or 'load' event carries.
+function progressOf(state) {
+  const r = state.report;
+  return {
+    componentsLoaded: r.componentsLoaded,
+    componentsFailed: r.componentsFailed,
+    componentsTotal: r.componentsTotal,
+    bytesLoaded: r.bytesLoaded,
+    bytesTotal: r.bytesTotal,
+    errors: r.errors.length,
+  };
 }
 
 /// Components `ids` failed with `error` (one message for them all).
@@ -96,6 +112,7 @@ export function componentsFailed(state, ids, error) {
   }
   reportError(state, error);
   scheduleStatus(state);
+  emit(state, 'progress', progressOf(state));
   if (state.settled.size === state.report.componentsTotal) finish(state, performance.now());
 }
 
@@ -116,6 +133,7 @@ export function componentsDrawn(state, ids, at) {
   report.firstFrameMs ??= at;
   updateStats(state);
   if (state.selectedPart >= 0) showInfo(state);
+  emit(state, 'progress', progressOf(state));
   if (state.settled.size === report.componentsTotal) finish(state, at);
 }
 

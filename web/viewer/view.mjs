@@ -3,7 +3,7 @@
 // lists them) in step with the page (camera, size, visible parts, frame requests), the view the
 // levels of detail are planned for (levels.mjs), the camera's fit to the package or to a part,
 // the orbit controls, and the projection of world boxes to client pixels
-// (window.osteon.screenPositionOf, screenBoundsOf). Every function takes the page's state
+// (window.osteon.screenPositionOf, screenBoundsOf). Every function takes the viewer's state
 // (state.mjs).
 
 import { Vector3 } from 'three';
@@ -11,7 +11,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 import { fitBox, kFovDeg, packageView } from './camera.mjs';
 import { findPart } from './manifest.mjs';
-import { partVisible } from './state.mjs';
+import { partVisible, viewChanged } from './state.mjs';
 
 // ---------------------------------------------------------------------------------------------
 // Talking to the renderer
@@ -118,6 +118,7 @@ function fitCamera(state, bounds, eye, up, margin = 1.1) {
   camera.lookAt(fit.target);
   if (controls) controls.target.copy(fit.target);
   requestRender(state);
+  viewChanged(state);
 }
 
 /// Fits the whole package in view, from the direction the renderer opened with.
@@ -135,22 +136,60 @@ export function framePart(state, partId) {
   fitCamera(state, state.manifest.partBounds[partId], eye, camera.up.clone(), 1.6);
 }
 
+/// Orbit controls on the camera, listening on the canvas. They read camera.up once, when made:
+/// a new up (setCameraView) makes new controls.
+function makeControls(state) {
+  state.controls?.dispose();
+  const controls = new OrbitControls(state.camera, state.canvas);
+  controls.enableDamping = true;
+  controls.maxDistance = state.maxDistance;
+  controls.addEventListener('change', () => {
+    requestRender(state);
+    viewChanged(state);
+  });
+  controls.listenToKeyEvents(state.canvas);
+  state.controls = controls;
+  return controls;
+}
+
 /// Once the manifest is read: the same view the renderer opened with (camera.mjs packageView),
 /// then orbit controls on it, listening on the canvas.
 export function startControls(state) {
-  const { camera, canvas } = state;
+  const { camera } = state;
   const view = packageView(state.manifest, kFovDeg, camera.aspect);
   camera.near = view.near;
   camera.far = view.far;
   camera.updateProjectionMatrix();
+  state.maxDistance = view.maxDistance;
   fitAll(state);  // sets camera.up, which OrbitControls reads once, in its constructor
-  const controls = new OrbitControls(camera, canvas);
-  controls.enableDamping = true;
-  controls.maxDistance = view.maxDistance;
-  controls.addEventListener('change', () => requestRender(state));
-  controls.listenToKeyEvents(canvas);
-  state.controls = controls;
+  makeControls(state);
   fitAll(state);  // again, now that there is a target to set
+}
+
+/// Puts the camera at `position` looking at `target` (arrays), with `up` and vertical field of
+/// view `fov` in degrees (each null: kept), exactly as given (share.mjs restores views with it).
+export function setCameraView(state, { position, target, up, fov }) {
+  const { camera } = state;
+  if (fov) {
+    camera.fov = fov;
+    camera.updateProjectionMatrix();
+  }
+  if (up) camera.up.fromArray(up);
+  camera.position.fromArray(position);
+  camera.lookAt(new Vector3().fromArray(target));
+  // New controls: they take the new up, and no momentum of a drag (damping) carries on.
+  makeControls(state);
+  state.controls.target.fromArray(target);
+  requestRender(state);
+  viewChanged(state);
+}
+
+/// The view's background colour ('#rrggbb'), on the page behind the canvas and in the renderer.
+export function setBackground(state, color) {
+  state.report.background = color;
+  state.root.getElementById('view').style.background = color;
+  send(state, { type: 'background', color });
+  requestRender(state);
 }
 
 // ---------------------------------------------------------------------------------------------
