@@ -3,7 +3,8 @@
 # Checks the layer boundaries (docs/DESIGN.md "Layers") on a source tree and prints every crossing:
 #   1. the core (src/core, src/codec and its public headers: include/osteon/{status,mesh,vec,codec}.hpp)
 #      includes only itself and the C++ standard library: it builds the WebAssembly decoder;
-#   2. the library (src/, include/osteon) includes nothing from the tools (tools/, cpp-httplib);
+#   2. the library (src/, include/osteon) includes nothing from the tools (tools/, cpp-httplib,
+#      libmicrohttpd);
 #   3. the mesh readers (src/io*) do not include the package module, which reads through them;
 #   4. no product file (code, docs, scripts, benchmarks, tests) names a tracker issue: a user has
 #      no tracker.
@@ -55,7 +56,7 @@ done < <(includes "${core_files[@]}")
 # 2. The library includes nothing of the tools.
 while IFS=: read -r file line what; do
   case "$what" in
-    *httplib*|\"support/*|\"serve.hpp\"|\"progress.hpp\"|\"cli.hpp\"|*tools/*)
+    *httplib*|*microhttpd*|\"support/*|\"serve.hpp\"|\"progress.hpp\"|\"cli.hpp\"|*tools/*)
       report "$file:$line: the library includes $what, which belongs to the tools" ;;
   esac
 done < <(includes "${library_files[@]}")

@@ -5,6 +5,7 @@ packages=(
   cmake ninja-build g++ clang libclang-rt-14-dev pkg-config
   libgtest-dev libgmock-dev
   libcli11-dev nlohmann-json3-dev libtinygltf-dev libtbb-dev libeigen3-dev libcpp-httplib-dev libssl-dev
+  libmicrohttpd-dev
   libnifti2-dev libmeshoptimizer-dev libdraco-dev
   libassimp-dev
   emscripten

@@ -30,9 +30,15 @@
 // A node whose mesh gives no triangle gives no part. The node hierarchy must be a tree: a node
 // reached twice (a cycle, or two parents) is an error. External files inside base_dir that images
 // name may be read (tinygltf reads them), but never decoded.
-// Known approximations: skins and morph targets are not applied (the rest pose is read);
-// EXT_mesh_gpu_instancing is ignored unless required (then kUnsupported). Output is capped (see
-// kExpansionFactor) against files that instance one mesh millions of times.
+// EXT_mesh_gpu_instancing: a node with instances gives one part per instance (the instance's
+// TRANSLATION * ROTATION * SCALE applied before the node's world matrix; the winding reversed
+// where that product mirrors), named from the node's extras when osteon export wrote them
+// (extras.osteon.instances[i].name, in instance order), else "<node name>#<i>". A node's part
+// name is extras.osteon.name when present (osteon export keeps the package's part name there and
+// the display name in the node's name), else the node's name.
+// Known approximations: skins and morph targets are not applied (the rest pose is read).
+// Output is capped (see kExpansionFactor) against files that instance one mesh millions of
+// times.
 
 #include <algorithm>
 #include <array>
@@ -260,7 +266,8 @@ bool extension_ok(const std::string& name) {
   for (const char* prefix : kPrefixes) {
     if (name.rfind(prefix, 0) == 0) return true;
   }
-  return name == "KHR_mesh_quantization" || name == "KHR_xmp_json_ld" ||
+  return name == "KHR_mesh_quantization" || name == "EXT_mesh_gpu_instancing" ||
+         name == "KHR_xmp_json_ld" ||
          name == "KHR_materials_variants";
 }
 
@@ -332,7 +339,7 @@ Status local_matrix(const tinygltf::Node& node, int index, const std::string& so
 
 // ---- accessors ---------------------------------------------------------------------------------
 
-enum class Role { kPosition, kNormal, kIndices };
+enum class Role { kPosition, kNormal, kIndices, kTranslation, kRotation, kScale };
 
 const char* role_name(Role role) {
   switch (role) {
@@ -342,6 +349,12 @@ const char* role_name(Role role) {
       return "NORMAL";
     case Role::kIndices:
       return "indices";
+    case Role::kTranslation:
+      return "TRANSLATION";
+    case Role::kRotation:
+      return "ROTATION";
+    case Role::kScale:
+      return "SCALE";
   }
   return "";
 }
@@ -376,6 +389,15 @@ bool component_allowed(Role role, int type, bool normalized) {
       return !normalized && (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
                              type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ||
                              type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+    // EXT_mesh_gpu_instancing (with KHR_mesh_quantization: byte and short ones too).
+    case Role::kTranslation:
+    case Role::kScale:
+      return type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+             (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT && component_bytes(type) != 0);
+    case Role::kRotation:
+      return type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+             (normalized &&
+              (type == TINYGLTF_COMPONENT_TYPE_BYTE || type == TINYGLTF_COMPONENT_TYPE_SHORT));
   }
   return false;
 }
@@ -457,11 +479,14 @@ class Reader {
                   what);
     }
     const tinygltf::Accessor& a = model_.accessors[static_cast<size_t>(index)];
-    int want_type = role == Role::kIndices ? TINYGLTF_TYPE_SCALAR : TINYGLTF_TYPE_VEC3;
+    const size_t components = role == Role::kIndices ? 1 : role == Role::kRotation ? 4 : 3;
+    const int want_type = components == 1   ? TINYGLTF_TYPE_SCALAR
+                          : components == 4 ? TINYGLTF_TYPE_VEC4
+                                            : TINYGLTF_TYPE_VEC3;
     if (a.type != want_type) {
-      return fail(
-          std::string(role_name(role)) + " must be " + (role == Role::kIndices ? "SCALAR" : "VEC3"),
-          what);
+      return fail(std::string(role_name(role)) + " must be " +
+                      (components == 1 ? "SCALAR" : components == 4 ? "VEC4" : "VEC3"),
+                  what);
     }
     if (!component_allowed(role, a.componentType, a.normalized)) {
       return fail(std::string("componentType ") + std::to_string(a.componentType) +
@@ -470,7 +495,6 @@ class Reader {
                   what);
     }
     if (a.count == 0) return fail("count is 0", what);
-    const size_t components = role == Role::kIndices ? 1 : 3;
     const size_t bytes = component_bytes(a.componentType);
     const size_t element = components * bytes;
 
@@ -737,6 +761,90 @@ Status add_primitive(const Reader& reader, const tinygltf::Primitive& prim, int 
   return {};
 }
 
+/// extras.osteon of a node, or null.
+const tinygltf::Value* osteon_extras(const tinygltf::Node& node) {
+  if (!node.extras.IsObject() || !node.extras.Has("osteon")) return nullptr;
+  const tinygltf::Value& o = node.extras.Get("osteon");
+  return o.IsObject() ? &o : nullptr;
+}
+
+/// A node's part name: extras.osteon.name (osteon export), else the node's name.
+std::string part_name(const tinygltf::Node& node) {
+  const tinygltf::Value* o = osteon_extras(node);
+  if (o != nullptr && o->Has("name") && o->Get("name").IsString()) {
+    return o->Get("name").Get<std::string>();
+  }
+  return node.name;
+}
+
+/// Instance i's part name: extras.osteon.instances[i].name (osteon export), else "<node>#<i>".
+std::string instance_name(const tinygltf::Node& node, size_t i) {
+  const tinygltf::Value* o = osteon_extras(node);
+  if (o != nullptr && o->Has("instances") && o->Get("instances").IsArray() &&
+      i < o->Get("instances").ArrayLen()) {
+    const tinygltf::Value& entry = o->Get("instances").Get(static_cast<int>(i));
+    if (entry.IsObject() && entry.Has("name") && entry.Get("name").IsString()) {
+      return entry.Get("name").Get<std::string>();
+    }
+  }
+  return node.name + "#" + std::to_string(i);
+}
+
+/// The instance matrices of a node's EXT_mesh_gpu_instancing (T * R * S each), or none.
+Status instance_matrices(const Reader& reader, const tinygltf::Node& node, int index,
+                         const std::string& source, std::vector<Mat4>* out) {
+  out->clear();
+  auto ext = node.extensions.find("EXT_mesh_gpu_instancing");
+  if (ext == node.extensions.end()) return {};
+  const std::string where = "node " + std::to_string(index) + " EXT_mesh_gpu_instancing";
+  if (!ext->second.IsObject() || !ext->second.Has("attributes") ||
+      !ext->second.Get("attributes").IsObject()) {
+    return error(ErrorCode::kInvalidData, source, "no attributes object", where);
+  }
+  const tinygltf::Value& attributes = ext->second.Get("attributes");
+  struct Attribute {
+    const char* name;
+    Role role;
+    size_t width;
+    std::vector<double> values;
+  };
+  Attribute list[] = {{"TRANSLATION", Role::kTranslation, 3, {}},
+                      {"ROTATION", Role::kRotation, 4, {}},
+                      {"SCALE", Role::kScale, 3, {}}};
+  size_t count = 0;
+  bool any = false;
+  for (Attribute& a : list) {
+    if (!attributes.Has(a.name)) continue;
+    const tinygltf::Value& v = attributes.Get(a.name);
+    if (!v.IsInt()) {
+      return error(ErrorCode::kInvalidData, source,
+                   std::string(a.name) + " is not an accessor index", where);
+    }
+    size_t n = 0;
+    OSTEON_RETURN_IF_ERROR(reader.read(v.Get<int>(), a.role, &a.values, &n));
+    if (any && n != count) {
+      return error(ErrorCode::kInvalidData, source,
+                   std::string(a.name) + " has " + std::to_string(n) + " instances, not " +
+                       std::to_string(count),
+                   where);
+    }
+    count = n;
+    any = true;
+  }
+  if (!any) return error(ErrorCode::kInvalidData, source, "no instance attribute", where);
+  out->reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    tinygltf::Node trs;
+    if (!list[0].values.empty()) trs.translation.assign(&list[0].values[3 * i], &list[0].values[3 * i] + 3);
+    if (!list[1].values.empty()) trs.rotation.assign(&list[1].values[4 * i], &list[1].values[4 * i] + 4);
+    if (!list[2].values.empty()) trs.scale.assign(&list[2].values[3 * i], &list[2].values[3 * i] + 3);
+    Mat4 m = kIdentityMatrix;
+    OSTEON_RETURN_IF_ERROR(local_matrix(trs, index, source, &m));
+    out->push_back(m);
+  }
+  return {};
+}
+
 }  // namespace
 
 Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
@@ -759,19 +867,6 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
                  at_byte(layout.json_offset + deep));
   }
 
-  // gltfpack's meshopt-compressed views decoded, and required extensions checked, before
-  // tinygltf (which refuses a meshopt fallback buffer, and a Draco primitive's accessors, with
-  // messages about byte lengths).
-  OSTEON_ASSIGN_OR_RETURN(
-      std::vector<uint8_t> plain,
-      plain_gltf(data + layout.json_offset, layout.json_size, data + layout.bin_offset,
-                 layout.bin_size, glb, source, &extension_ok));
-  if (!plain.empty()) {
-    data = plain.data();
-    size = plain.size();
-    OSTEON_RETURN_IF_ERROR(check_glb(data, size, source, &layout));
-  }
-
   FilePolicy policy;
   policy.max_bytes = options.max_file_bytes;
   if (!base_dir.empty()) {
@@ -779,6 +874,43 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
     policy.base = fs::weakly_canonical(fs::path(base_dir), ec);
     if (ec) policy.base.clear();
   }
+  // A .gltf with meshopt-compressed views (osteon export writes them beside a .bin): its external
+  // buffers embedded, read through the same file policy, so that it is read as the GLB would be.
+  std::vector<uint8_t> embedded;
+  if (!glb && !policy.base.empty()) {
+    auto read_external = [&](const std::string& uri) -> Result<std::vector<uint8_t>> {
+      std::vector<unsigned char> bytes;
+      std::string err;
+      const std::string path = (fs::path(base_dir) / uri).string();
+      if (!policy_read(&bytes, &err, path, &policy)) {
+        return error(ErrorCode::kIoError, source,
+                     "external file '" + uri +
+                         "' is missing, not a regular file, outside the glTF's folder or too large");
+      }
+      return std::vector<uint8_t>(bytes.begin(), bytes.end());
+    };
+    OSTEON_ASSIGN_OR_RETURN(embedded, embed_gltf_buffers(data, size, source, read_external));
+    if (!embedded.empty()) {
+      data = embedded.data();
+      size = embedded.size();
+      OSTEON_RETURN_IF_ERROR(check_glb(data, size, source, &layout));
+    }
+  }
+  const bool is_glb = glb || !embedded.empty();
+
+  // gltfpack's meshopt-compressed views decoded, and required extensions checked, before
+  // tinygltf (which refuses a meshopt fallback buffer, and a Draco primitive's accessors, with
+  // messages about byte lengths).
+  OSTEON_ASSIGN_OR_RETURN(
+      std::vector<uint8_t> plain,
+      plain_gltf(data + layout.json_offset, layout.json_size, data + layout.bin_offset,
+                 layout.bin_size, is_glb, source, &extension_ok));
+  if (!plain.empty()) {
+    data = plain.data();
+    size = plain.size();
+    OSTEON_RETURN_IF_ERROR(check_glb(data, size, source, &layout));
+  }
+
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&skip_image, nullptr);
   loader.SetFsCallbacks(
@@ -787,7 +919,7 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
   std::string err, warn;
   bool loaded = false;
   try {
-    if (glb) {
+    if (is_glb) {
       loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, data,
                                            static_cast<unsigned int>(layout.length), base_dir);
     } else {
@@ -888,21 +1020,29 @@ Status parse_gltf(const uint8_t* data, size_t size, const std::string& source,
       return error(ErrorCode::kInvalidData, source,
                    "mesh " + std::to_string(node.mesh) + " does not exist", where);
     }
-    PartBuilder part;
-    part.mesh.name = node.name;
-    part.emitted = &emitted;
-    part.budget = budget;
-    const bool mirrored = determinant3(world) < 0;
+    // One part, or one per EXT_mesh_gpu_instancing instance.
+    std::vector<Mat4> instances;
+    OSTEON_RETURN_IF_ERROR(instance_matrices(reader, node, item.node, source, &instances));
+    const bool instanced = !instances.empty();
+    if (!instanced) instances.push_back(kIdentityMatrix);
     const tinygltf::Mesh& mesh = model.meshes[static_cast<size_t>(node.mesh)];
-    for (size_t p = 0; p < mesh.primitives.size(); ++p) {
-      OSTEON_RETURN_IF_ERROR(
-          add_primitive(reader, mesh.primitives[p], node.mesh, p, world, mirrored, source, &part));
+    for (size_t i = 0; i < instances.size(); ++i) {
+      PartBuilder part;
+      part.mesh.name = instanced ? instance_name(node, i) : part_name(node);
+      part.emitted = &emitted;
+      part.budget = budget;
+      const Mat4 instance_world = instanced ? multiply(world, instances[i]) : world;
+      const bool mirrored = determinant3(instance_world) < 0;
+      for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+        OSTEON_RETURN_IF_ERROR(add_primitive(reader, mesh.primitives[p], node.mesh, p,
+                                             instance_world, mirrored, source, &part));
+      }
+      if (!part.normals_complete || part.mesh.normals.size() != part.mesh.positions.size()) {
+        part.mesh.normals.clear();
+      }
+      if (part.mesh.indices.empty()) continue;  // points or lines only: not a surface
+      scene->parts.push_back(std::move(part.mesh));
     }
-    if (!part.normals_complete || part.mesh.normals.size() != part.mesh.positions.size()) {
-      part.mesh.normals.clear();
-    }
-    if (part.mesh.indices.empty()) continue;  // points or lines only: not a surface
-    scene->parts.push_back(std::move(part.mesh));
   }
   return {};
 }

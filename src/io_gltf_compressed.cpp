@@ -26,9 +26,11 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "io_internal.hpp"
@@ -457,6 +459,99 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
   put_le32(&glb_out, uint32_t(out_bin.size()));
   put_le32(&glb_out, 0x004E4942);
   glb_out.insert(glb_out.end(), out_bin.begin(), out_bin.end());
+  return glb_out;
+}
+
+Result<std::vector<uint8_t>> embed_gltf_buffers(
+    const uint8_t* json_text, size_t json_size, const std::string& source,
+    const std::function<Result<std::vector<uint8_t>>(const std::string& uri)>& read_external) {
+  const std::string_view original(reinterpret_cast<const char*>(json_text), json_size);
+  if (original.find("_meshopt_compression") == std::string_view::npos) {
+    return std::vector<uint8_t>();
+  }
+  json doc = json::parse(json_text, json_text + json_size, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded() || !doc.is_object()) return std::vector<uint8_t>();  // tinygltf says why
+  const auto buffers = doc.find("buffers");
+  if (buffers == doc.end() || !buffers->is_array()) return std::vector<uint8_t>();
+  // Buffer k -> (new index, offset in the BIN chunk): files first, into buffer 0.
+  std::vector<uint8_t> bin;
+  std::vector<std::pair<int64_t, uint64_t>> moved(buffers->size(), {-1, 0});
+  json kept = json::array({json::object()});
+  for (size_t k = 0; k < buffers->size(); ++k) {
+    const json& buffer = (*buffers)[k];
+    const std::string where = "buffers[" + std::to_string(k) + "]";
+    if (!buffer.is_object()) {
+      return error(ErrorCode::kInvalidData, source, "not an object", where);
+    }
+    const auto uri = buffer.find("uri");
+    if (uri == buffer.end()) {
+      moved[k] = {int64_t(kept.size()), 0};
+      kept.push_back(buffer);
+      continue;
+    }
+    if (!uri->is_string()) return error(ErrorCode::kInvalidData, source, "uri is not a string", where);
+    const std::string name = uri->get<std::string>();
+    if (name.rfind("data:", 0) == 0) {
+      return error(ErrorCode::kUnsupported, source,
+                   "a data: URI buffer beside meshopt-compressed views (use a .bin or a .glb)",
+                   where);
+    }
+    OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_external(name));
+    uint64_t declared = 0;
+    if (!count_member(buffer, "byteLength", 0, &declared) || declared > bytes.size()) {
+      return error(ErrorCode::kInvalidData, source,
+                   "byteLength is not a count of at most the file's " +
+                       std::to_string(bytes.size()) + " bytes",
+                   where);
+    }
+    while (bin.size() % 4 != 0) bin.push_back(0);
+    moved[k] = {0, bin.size()};
+    bin.insert(bin.end(), bytes.begin(), bytes.begin() + int64_t(declared));
+  }
+  while (bin.size() % 4 != 0) bin.push_back(0);
+  if (bin.size() > UINT32_MAX) {
+    return error(ErrorCode::kUnsupported, source, "external buffers of 4 GiB or more");
+  }
+  kept[0] = {{"byteLength", bin.size()}};
+  auto remap = [&](json& object, const std::string& where) -> Status {
+    uint64_t index = 0, offset = 0;
+    if (!count_member(object, "buffer", UINT64_MAX, &index) || index >= moved.size() ||
+        !count_member(object, "byteOffset", 0, &offset)) {
+      return error(ErrorCode::kInvalidData, source, "names no valid buffer and byteOffset", where);
+    }
+    object["buffer"] = moved[index].first;
+    object["byteOffset"] = offset + moved[index].second;
+    return {};
+  };
+  if (const auto views = doc.find("bufferViews"); views != doc.end() && views->is_array()) {
+    for (size_t k = 0; k < views->size(); ++k) {
+      json& view = (*views)[k];
+      if (!view.is_object()) continue;  // tinygltf says why
+      OSTEON_RETURN_IF_ERROR(remap(view, view_at(k)));
+      if (const json* m = meshopt_of(view); m != nullptr) {
+        for (const char* name : kMeshoptNames) {
+          auto ext = view["extensions"].find(name);
+          if (ext != view["extensions"].end() && ext->is_object()) {
+            OSTEON_RETURN_IF_ERROR(remap(*ext, view_at(k) + " " + name));
+          }
+        }
+      }
+    }
+  }
+  doc["buffers"] = std::move(kept);
+  std::string text = doc.dump(-1, ' ', false, json::error_handler_t::replace);
+  while (text.size() % 4 != 0) text.push_back(' ');
+  std::vector<uint8_t> glb_out;
+  glb_out.reserve(28 + text.size() + bin.size());
+  put_le32(&glb_out, 0x46546C67);
+  put_le32(&glb_out, 2);
+  put_le32(&glb_out, uint32_t(28 + text.size() + bin.size()));
+  put_le32(&glb_out, uint32_t(text.size()));
+  put_le32(&glb_out, 0x4E4F534A);
+  glb_out.insert(glb_out.end(), text.begin(), text.end());
+  put_le32(&glb_out, uint32_t(bin.size()));
+  put_le32(&glb_out, 0x004E4942);
+  glb_out.insert(glb_out.end(), bin.begin(), bin.end());
   return glb_out;
 }
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -65,6 +66,17 @@ Result<std::vector<uint8_t>> plain_gltf(const uint8_t* json_text, size_t json_si
                                         const uint8_t* bin, size_t bin_size, bool glb,
                                         const std::string& source,
                                         bool (*readable)(const std::string&));
+
+/// A .gltf whose buffer views are meshopt-compressed, as a GLB that plain_gltf decodes: every
+/// buffer with a relative `uri` (read through `read_external`, which enforces the reader's file
+/// policy) concatenated into the BIN chunk, the views (and their meshopt extensions) pointed into
+/// it, buffers without a uri (meshopt fallbacks) kept after it. An empty vector when the .gltf
+/// names no meshopt compression (it is read as it is). Errors: kUnsupported for a data: URI
+/// buffer beside compressed views; read_external's; kInvalidData for a view naming a missing
+/// buffer.
+Result<std::vector<uint8_t>> embed_gltf_buffers(
+    const uint8_t* json_text, size_t json_size, const std::string& source,
+    const std::function<Result<std::vector<uint8_t>>(const std::string& uri)>& read_external);
 
 /// Guesses the format from the first bytes (magic numbers and keywords); kUnknown if none fits.
 Format sniff_format(const uint8_t* data, size_t size);

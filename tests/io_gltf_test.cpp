@@ -580,8 +580,8 @@ TEST(IoGltf, VersionsAndRequiredExtensions) {
   Status status = read_status(b.glb(), "m.glb");
   EXPECT_EQ(status.code(), ErrorCode::kUnsupported);
   EXPECT_EQ(status.message(), "m.glb: glTF version '1.0' is not supported (only 2.x) (asset)");
-  for (const char* ext : {"KHR_draco_mesh_compression", "EXT_meshopt_compression",
-                          "EXT_mesh_gpu_instancing", "VENDOR_unknown"}) {
+  for (const char* ext :
+       {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "VENDOR_unknown"}) {
     b = single_triangle();
     b.root["extensionsRequired"] = {"KHR_materials_emissive_strength", ext};
     status = read_status(b.glb(), "m.glb");
@@ -592,6 +592,48 @@ TEST(IoGltf, VersionsAndRequiredExtensions) {
   b = single_triangle();  // used, not required: the uncompressed fallback is read
   b.root["extensionsUsed"] = {"KHR_draco_mesh_compression"};
   EXPECT_EQ(parse_or_fail(b.glb(), "m.glb").parts.size(), 1u);
+}
+
+// EXT_mesh_gpu_instancing: one part per instance, T * R * S before the node's matrix, the winding
+// reversed where the product mirrors; named "<node>#<i>", or from osteon export's extras.
+TEST(IoGltf, GpuInstancesBecomeParts) {
+  Builder b;
+  int pos = b.add_positions(kTriangle);
+  int idx = b.add_indices({0, 1, 2});
+  int mesh = b.add_mesh(json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", idx}}}));
+  std::string t = le(10.0f) + le(0.0f) + le(0.0f) + le(0.0f) + le(20.0f) + le(0.0f);
+  std::string sc = le(1.0f) + le(1.0f) + le(1.0f) + le(-2.0f) + le(1.0f) + le(1.0f);
+  int translation = b.add_accessor(b.add_view(t), kFloat, 2, "VEC3");
+  int scale = b.add_accessor(b.add_view(sc), kFloat, 2, "VEC3");
+  json node = {{"name", "rib"},
+               {"mesh", mesh},
+               {"translation", {0, 0, 5}},
+               {"extensions",
+                {{"EXT_mesh_gpu_instancing",
+                  {{"attributes", {{"TRANSLATION", translation}, {"SCALE", scale}}}}}}}};
+  b.set_scene({b.add_node(node)});
+  b.root["extensionsUsed"] = {"EXT_mesh_gpu_instancing"};
+  b.root["extensionsRequired"] = {"EXT_mesh_gpu_instancing"};
+  Scene scene = parse_or_fail(b.glb(), "m.glb", no_weld());
+  ASSERT_EQ(scene.parts.size(), 2u);
+  EXPECT_EQ(scene.parts[0].name, "m/rib#0");
+  EXPECT_EQ(scene.parts[1].name, "m/rib#1");
+  expect_near(scene.parts[0].positions[1], {11, 0, 5});
+  expect_near(scene.parts[1].positions[1], {-2, 20, 5});
+  EXPECT_GT(face_normal(scene.parts[0], 0).z, 0);
+  EXPECT_GT(face_normal(scene.parts[1], 0).z, 0);  // mirrored: winding reversed, still +z
+
+  b.root["nodes"][0]["extras"] = {
+      {"osteon", {{"instances", json::array({{{"name", "rib_l1"}}, {{"name", "rib_r1"}}})}}}};
+  scene = parse_or_fail(b.glb(), "m.glb", no_weld());
+  ASSERT_EQ(scene.parts.size(), 2u);
+  EXPECT_EQ(scene.parts[0].name, "m/rib_l1");
+  EXPECT_EQ(scene.parts[1].name, "m/rib_r1");
+
+  b.root["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"] =
+      b.add_accessor(b.add_view(le(1.0f) + le(2.0f) + le(3.0f)), kFloat, 1, "VEC3");
+  EXPECT_EQ(parse_error(b.glb(), "m.glb"),
+            "m.glb: SCALE has 2 instances, not 1 (node 0 EXT_mesh_gpu_instancing)");
 }
 
 TEST(IoGltf, GlbContainerErrors) {

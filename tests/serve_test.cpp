@@ -9,7 +9,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <mutex>
 #include <string>
@@ -19,10 +23,12 @@
 #include <httplib.h>
 
 #include "fixtures.hpp"
+#include "serve_client.hpp"
 
 // The package server: MIME types, cache headers, ETag/304, Range, precompressed gzip, path
-// traversal refused, 200 concurrent requests, and the CLI's errors. Every server binds port 0 on
-// loopback inside a scratch folder.
+// traversal refused, other methods 405, malformed requests refused, files streamed rather than
+// read whole, 200 concurrent requests, and the CLI's errors. Every server binds port 0 on loopback
+// inside a scratch folder. Slow, numerous, vanishing and hostile clients: serve_abuse_test.cpp.
 
 namespace osteon {
 namespace {
@@ -72,10 +78,11 @@ struct Running {
   std::vector<std::string> log;
   FileServer server;
 
-  Running() {
+  explicit Running(const std::function<void(ServeOptions&)>& tune = {}) {
     ServeOptions options;
     options.root = package.root;
     options.port = 0;
+    if (tune) tune(options);
     options.log = [this](const std::string& line) {
       std::lock_guard<std::mutex> lock(log_mutex);
       log.push_back(line);
@@ -94,29 +101,21 @@ struct Running {
 /// Sends one request line exactly as given (no client-side normalisation or escaping) and returns
 /// the response status, or -1.
 int raw_status(int port, const std::string& target) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return -1;
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    close(fd);
-    return -1;
+  return test::status_of(test::raw_exchange(
+      port, "GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"));
+}
+
+/// Resident memory of this process, in KiB (VmRSS).
+long rss_kib() {
+  FILE* f = std::fopen("/proc/self/status", "r");
+  if (f == nullptr) return -1;
+  char line[256];
+  long kib = -1;
+  while (std::fgets(line, sizeof line, f) != nullptr) {
+    if (std::strncmp(line, "VmRSS:", 6) == 0) kib = std::atol(line + 6);
   }
-  const std::string request =
-      "GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
-  if (send(fd, request.data(), request.size(), 0) != static_cast<ssize_t>(request.size())) {
-    close(fd);
-    return -1;
-  }
-  std::string response;
-  char buffer[4096];
-  ssize_t n;
-  while ((n = recv(fd, buffer, sizeof buffer, 0)) > 0) response.append(buffer, size_t(n));
-  close(fd);
-  if (response.size() < 12 || response.compare(0, 5, "HTTP/") != 0) return -1;
-  return std::atoi(response.c_str() + 9);
+  std::fclose(f);
+  return kib;
 }
 
 TEST(Serve, MimeTypesAndHashedNames) {
@@ -295,6 +294,61 @@ TEST(Serve, TwoHundredConcurrentRequests) {
   for (auto& a : answers) ok += a.get() ? 1 : 0;
   EXPECT_EQ(ok, 200);
   EXPECT_EQ(r.client().Get("/index.html")->status, 200);  // still up
+}
+
+TEST(Serve, HeadAndOtherMethods) {
+  Running r;
+  const int port = r.server.port();
+  const std::string path = "/c/" + kHash + ".ostm";
+  const std::string head = test::raw_exchange(
+      port, "HEAD " + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(test::status_of(head), 200);
+  EXPECT_EQ(test::header_of(head, "Content-Length"), "1000");
+  EXPECT_EQ(test::header_of(head, "Content-Type"), "application/octet-stream");
+  EXPECT_TRUE(test::body_of(head).empty());
+  for (const std::string method : {"POST", "PUT", "DELETE", "PATCH", "OPTIONS", "TRACE"}) {
+    const std::string response = test::raw_exchange(
+        port, method + " /index.html HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
+    EXPECT_EQ(test::status_of(response), 405) << method;
+    EXPECT_EQ(test::header_of(response, "Allow"), "GET, HEAD") << method;
+  }
+  auto c = r.client();
+  auto posted = c.Post("/index.html", "x=1", "application/x-www-form-urlencoded");
+  ASSERT_TRUE(posted);
+  EXPECT_EQ(posted->status, 405);
+  EXPECT_EQ(c.Get("/index.html")->status, 200);
+}
+
+TEST(Serve, LargeFilesAreStreamedNotReadWhole) {
+  Running r;
+  // 256 MiB, sparse: no disk, and the old read-whole server would have grown by that much.
+  const std::string big = r.package.root + "/big.bin";
+  test::write_bytes(big, "");
+  fs::resize_file(big, 256u << 20);
+  const long before = rss_kib();
+  std::vector<std::thread> readers;
+  std::atomic<uint64_t> received{0};
+  for (int i = 0; i < 4; ++i) {
+    readers.emplace_back([&] {
+      const int fd = test::connect_loopback(r.server.port());
+      if (fd < 0) return;
+      test::send_all(fd, "GET /big.bin HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+      char buffer[1 << 16];
+      ssize_t n;
+      while ((n = recv(fd, buffer, sizeof buffer, 0)) > 0) received += uint64_t(n);
+      close(fd);
+    });
+  }
+  for (auto& t : readers) t.join();
+  EXPECT_GE(received.load(), 4ull * (256u << 20));
+  const long after = rss_kib();
+  EXPECT_LT(after - before, 64 * 1024) << before << " KiB -> " << after << " KiB";
+  // A range deep inside is sent from that offset.
+  auto c = r.client();
+  auto tail = c.Get("/big.bin", {{"Range", "bytes=268435000-268435455"}});
+  ASSERT_TRUE(tail);
+  EXPECT_EQ(tail->status, 206);
+  EXPECT_EQ(tail->body, std::string(456, '\0'));
 }
 
 TEST(Serve, LogsOneLinePerRequest) {

@@ -80,6 +80,14 @@ Result<std::vector<uint8_t>> encode(const Mesh& mesh, const EncodeOptions& optio
 /// computed (area-weighted) unless the stream carries them. `source` names the stream in messages.
 Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source = "osteon stream");
 
+/// The grid a stream was encoded on, from its header: decode() places every vertex at
+/// float(double(float(origin)) + q * step) for its integer coordinates q, so a caller that keeps
+/// the decoded positions on their grid (osteon export's quantised glTF) recovers q exactly as
+/// round((position - origin) / step). Checks the magic, version and size (not the checksum:
+/// decode() does that). Errors: kInvalidData / kUnsupported as decode()'s header checks. O(1).
+Result<QuantizationGrid> stream_grid(const uint8_t* data, size_t size,
+                                     const std::string& source = "osteon stream");
+
 /// Area-weighted smooth vertex normals (unit length; zero for vertices of zero-area fans).
 std::vector<Vec3> compute_vertex_normals(const Mesh& mesh);
 

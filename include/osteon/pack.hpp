@@ -125,4 +125,11 @@ struct PackReport {
 /// was accepted under to the quantization bound.
 Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options);
 
+/// pack() without writing anything: the manifest and chunk bytes it would write (options.output
+/// and options.viewer are ignored; `report`, when given, gets every field but the written
+/// files' sizes and paths). For commands that turn inputs straight into another format
+/// (`osteon export`). Deterministic, and byte-identical to what pack() writes. Errors: pack's.
+Result<PackageData> pack_in_memory(const std::vector<std::string>& inputs,
+                                   const PackOptions& options, PackReport* report = nullptr);
+
 }  // namespace osteon

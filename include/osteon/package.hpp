@@ -104,6 +104,18 @@ std::string write_manifest(const Manifest& manifest);
 /// ("instances[3].matrix: ..."); kUnsupported for another version. Allocates O(size).
 Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::string& source);
 
+/// A package in memory: its manifest and the bytes of its chunk files (chunks[k] holds
+/// manifest.chunks[k]), as load_package reads it or pack_in_memory builds it.
+struct PackageData {
+  Manifest manifest;
+  std::vector<std::vector<uint8_t>> chunks;
+  std::string source;  ///< what messages name: the manifest's path, or "pack" when built in memory
+};
+
+/// Reads a package folder's manifest (parse_manifest) and every chunk it names, each checked to
+/// be the size the manifest says. Errors: as read_package's, before any stream is decoded.
+Result<PackageData> load_package(const std::string& dir);
+
 /// True when `dir` is a folder holding a manifest.json (read_path then reads it as a package).
 bool is_package(const std::string& dir);
 

@@ -124,4 +124,35 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   return mesh;
 }
 
+Result<QuantizationGrid> stream_grid(const uint8_t* data, size_t size, const std::string& source) {
+  if (size < detail::kStreamHeaderBytes + detail::kStreamChecksumBytes) {
+    return error(ErrorCode::kInvalidData, source,
+                 detail::message("too short for an osteon stream (% bytes, at least %)",
+                                 {size, detail::kStreamHeaderBytes + detail::kStreamChecksumBytes}),
+                 at_byte(size));
+  }
+  if (std::memcmp(data, detail::kStreamMagic, 4) != 0) {
+    return error(ErrorCode::kInvalidData, source, "not an osteon stream (wrong magic)", "byte 0");
+  }
+  if (data[4] != detail::kStreamVersion) {
+    return error(ErrorCode::kUnsupported, source,
+                 detail::message("stream version % (this decoder reads version %)",
+                                 {data[4], detail::kStreamVersion}),
+                 "byte 4");
+  }
+  ByteReader in(data, size);
+  in.skip(16);
+  double origin[3], step = 0;
+  for (double& o : origin) in.read_le(&o);
+  in.read_le(&step);
+  if (!(step > 0) || !std::isfinite(step) || !std::isfinite(origin[0]) ||
+      !std::isfinite(origin[1]) || !std::isfinite(origin[2])) {
+    return error(ErrorCode::kInvalidData, source, "invalid quantization grid", "byte 16");
+  }
+  QuantizationGrid grid;
+  grid.origin = {float(origin[0]), float(origin[1]), float(origin[2])};
+  grid.step = step;
+  return grid;
+}
+
 }  // namespace osteon

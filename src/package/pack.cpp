@@ -694,26 +694,32 @@ const char* stage_unit(PackStage stage) {
   return "?";
 }
 
-Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options) {
-  OSTEON_RETURN_IF_ERROR(check_options(inputs, options));
-  const auto start = Clock::now();
-  const Progress progress{options};
-  PackReport report;
-  PackTimings& ms = report.timings;
+namespace {
+
+/// Every stage but the write: the package in memory, the viewer's files to copy in, and the
+/// report's counts and timings so far.
+struct Built {
+  PackageData package;
+  ViewerFiles viewer_files;
+};
+
+Result<Built> build(const std::vector<std::string>& inputs, const PackOptions& options,
+                    const Progress& progress, PackReport* report) {
+  PackTimings& ms = report->timings;
   // More threads than cores only makes TBB warn; the output does not depend on the count.
   tbb::task_arena arena(options.threads > 0
                             ? std::min(options.threads, tbb::info::default_concurrency())
                             : tbb::task_arena::automatic);
 
   auto stage = Clock::now();
-  OSTEON_ASSIGN_OR_RETURN(Inputs in, read_stage(inputs, options, progress, &report));
+  OSTEON_ASSIGN_OR_RETURN(Inputs in, read_stage(inputs, options, progress, report));
   ms.read_ms = ms_since(stage);
   stage = Clock::now();
-  OSTEON_RETURN_IF_ERROR(clean_stage(inputs.front(), progress, &in.parts, &report));
+  OSTEON_RETURN_IF_ERROR(clean_stage(inputs.front(), progress, &in.parts, report));
   ms.clean_ms = ms_since(stage);
   stage = Clock::now();
   OSTEON_ASSIGN_OR_RETURN(Repeats repeats, repeats_stage(in.parts, options, progress));
-  report.prototypes = repeats.prototypes.size();
+  report->prototypes = repeats.prototypes.size();
   ms.repeats_ms = ms_since(stage);
   stage = Clock::now();
   OSTEON_ASSIGN_OR_RETURN(std::vector<std::vector<Mesh>> pieces,
@@ -727,32 +733,69 @@ Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOption
   OSTEON_ASSIGN_OR_RETURN(EncodedParts encoded, encode_stage(in.parts, repeats.prototypes, pieces,
                                                              levels, options, progress, arena));
   for (const Encoded& c : encoded.components) {
-    report.triangles_out += c.entry.triangles;
-    report.level_streams += c.entry.levels.size();
-    for (const ManifestLevel& level : c.entry.levels) report.level_triangles += level.triangles;
+    report->triangles_out += c.entry.triangles;
+    report->level_streams += c.entry.levels.size();
+    for (const ManifestLevel& level : c.entry.levels) report->level_triangles += level.triangles;
   }
   ms.encode_ms = ms_since(stage);
 
-  std::vector<std::vector<uint8_t>> chunk_data;
-  const Manifest manifest =
-      build_manifest(in.parts, repeats, in.names, options.chunk_bytes, &encoded, &chunk_data);
-  stage = Clock::now();
-  OSTEON_RETURN_IF_ERROR(
-      write_stage(options, in.viewer_files, chunk_data, manifest, progress, &report));
-  ms.write_ms = ms_since(stage);
-
+  Built built;
+  built.package.manifest = build_manifest(in.parts, repeats, in.names, options.chunk_bytes,
+                                          &encoded, &built.package.chunks);
+  built.package.source = "pack";
+  built.viewer_files = std::move(in.viewer_files);
+  const Manifest& manifest = built.package.manifest;
   // The first chunks hold every component's first stream (FORMAT: "Levels of detail").
   std::set<uint64_t> first_chunks;
   for (const ManifestComponent& c : manifest.components) {
     first_chunks.insert(c.levels.empty() ? c.chunk : c.levels.front().chunk);
-    for (const ManifestLevel& level : c.levels) report.level_bytes += level.bytes;
+    for (const ManifestLevel& level : c.levels) report->level_bytes += level.bytes;
   }
-  for (uint64_t k : first_chunks) report.first_bytes += manifest.chunks[k].bytes;
-  report.components = manifest.components.size();
-  report.files = manifest.chunks.size();
-  report.instances = manifest.instances.size();
-  ms.total_ms = ms_since(start);
+  for (uint64_t k : first_chunks) report->first_bytes += manifest.chunks[k].bytes;
+  report->components = manifest.components.size();
+  report->files = manifest.chunks.size();
+  report->instances = manifest.instances.size();
+  return built;
+}
+
+}  // namespace
+
+Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options) {
+  OSTEON_RETURN_IF_ERROR(check_options(inputs, options));
+  const auto start = Clock::now();
+  const Progress progress{options};
+  PackReport report;
+  OSTEON_ASSIGN_OR_RETURN(Built built, build(inputs, options, progress, &report));
+  const auto stage = Clock::now();
+  OSTEON_RETURN_IF_ERROR(write_stage(options, built.viewer_files, built.package.chunks,
+                                     built.package.manifest, progress, &report));
+  report.timings.write_ms = ms_since(stage);
+  report.timings.total_ms = ms_since(start);
   return report;
+}
+
+Result<PackageData> pack_in_memory(const std::vector<std::string>& inputs,
+                                   const PackOptions& options, PackReport* report) {
+  PackOptions memory = options;
+  memory.output = "(memory)";  // check_options wants one; nothing is written
+  memory.viewer.clear();
+  OSTEON_RETURN_IF_ERROR(check_options(inputs, memory));
+  const auto start = Clock::now();
+  const Progress progress{memory};
+  PackReport local;
+  PackReport* r = report != nullptr ? report : &local;
+  *r = PackReport();
+  OSTEON_ASSIGN_OR_RETURN(Built built, build(inputs, memory, progress, r));
+  for (const std::vector<uint8_t>& chunk : built.package.chunks) r->output_bytes += chunk.size();
+  // The manifest as a reader of the written package sees it (numbers rounded as written), so
+  // that what is made of it does not depend on whether the package went through a folder.
+  const std::string text = write_manifest(built.package.manifest);
+  r->output_bytes += text.size();
+  OSTEON_ASSIGN_OR_RETURN(
+      built.package.manifest,
+      parse_manifest(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "pack"));
+  r->timings.total_ms = ms_since(start);
+  return std::move(built.package);
 }
 
 }  // namespace osteon

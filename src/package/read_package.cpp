@@ -32,24 +32,33 @@ bool is_package(const std::string& dir) {
   return fs::is_directory(dir, ec) && fs::is_regular_file(fs::path(dir) / "manifest.json", ec);
 }
 
-Result<Scene> read_package(const std::string& dir, int level) {
-  const std::string manifest_path = (fs::path(dir) / "manifest.json").string();
-  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> text, read_file(manifest_path, kMaxManifestBytes));
-  OSTEON_ASSIGN_OR_RETURN(Manifest manifest,
-                          parse_manifest(text.data(), text.size(), manifest_path));
-
+Result<PackageData> load_package(const std::string& dir) {
+  PackageData package;
+  package.source = (fs::path(dir) / "manifest.json").string();
+  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> text, read_file(package.source, kMaxManifestBytes));
+  OSTEON_ASSIGN_OR_RETURN(package.manifest,
+                          parse_manifest(text.data(), text.size(), package.source));
   // Chunks, read whole (each must be the size the manifest says).
-  std::vector<std::vector<uint8_t>> chunk_bytes(manifest.chunks.size());
+  const Manifest& manifest = package.manifest;
+  package.chunks.resize(manifest.chunks.size());
   for (size_t k = 0; k < manifest.chunks.size(); ++k) {
     const ManifestChunk& chunk = manifest.chunks[k];
     const std::string path = (fs::path(dir) / chunk.file).string();
-    OSTEON_ASSIGN_OR_RETURN(chunk_bytes[k], read_file(path, kMaxChunkBytes));
-    if (chunk_bytes[k].size() != chunk.bytes) {
+    OSTEON_ASSIGN_OR_RETURN(package.chunks[k], read_file(path, kMaxChunkBytes));
+    if (package.chunks[k].size() != chunk.bytes) {
       return error(ErrorCode::kInvalidData, path,
-                   "holds " + std::to_string(chunk_bytes[k].size()) + " bytes, the manifest says " +
-                       std::to_string(chunk.bytes));
+                   "holds " + std::to_string(package.chunks[k].size()) +
+                       " bytes, the manifest says " + std::to_string(chunk.bytes));
     }
   }
+  return package;
+}
+
+Result<Scene> read_package(const std::string& dir, int level) {
+  OSTEON_ASSIGN_OR_RETURN(PackageData package, load_package(dir));
+  const Manifest& manifest = package.manifest;
+  const std::string& manifest_path = package.source;
+  const std::vector<std::vector<uint8_t>>& chunk_bytes = package.chunks;
 
   // Components, each decoded from its byte range of its chunk (parse_manifest checked the
   // ranges), at the level asked for.

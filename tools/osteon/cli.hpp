@@ -29,6 +29,7 @@ void register_segeval(CLI::App& app, std::function<int()>* run);
 void register_repeats(CLI::App& app, std::function<int()>* run);
 void register_serve(CLI::App& app, std::function<int()>* run);
 void register_pack(CLI::App& app, std::function<int()>* run);
+void register_export(CLI::App& app, std::function<int()>* run);
 void register_voxelize(CLI::App& app, std::function<int()>* run);
 
 /// Adds --labels, --threshold and --smoothing (label volumes) to a command that reads inputs.

@@ -36,6 +36,7 @@ struct CompareArgs {
   uint64_t seed = 1;
   int threads = 0;
   bool json = false;
+  bool whole = false;  ///< compare every part of each input merged into one mesh
   ReadOptions read;  ///< label volumes' options, for both inputs
 };
 
@@ -211,7 +212,7 @@ int run_compare(const CompareArgs& args) {
   // One part against several: the several merged (a codec stream holds one mesh).
   std::string matched_by = "single";
   std::vector<std::pair<size_t, size_t>> indices;
-  if (scene_a.parts.size() == 1 || scene_b.parts.size() == 1) {
+  if (args.whole || scene_a.parts.size() == 1 || scene_b.parts.size() == 1) {
     if (scene_a.parts.size() > 1) scene_a.parts = {merged(scene_a, args.a)};
     if (scene_b.parts.size() > 1) scene_b.parts = {merged(scene_b, args.b)};
     if (scene_a.parts.size() == 1 && scene_b.parts.size() == 1) indices.emplace_back(0, 0);
@@ -343,6 +344,9 @@ void register_compare(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::Range(1e-6, 1e6))
       ->excludes(samples);
   cmd->add_option("--seed", args->seed, "Seed of the sample positions (default 1)");
+  cmd->add_flag("--whole", args->whole,
+                "merge each input's parts into one mesh (files whose parts are named or split "
+                "differently, e.g. after gltfpack)");
   cmd->add_option("--level", args->read.package_level,
                   "read packages at this level of detail, 0 the coarsest (default: full)")
       ->check(CLI::NonNegativeNumber);

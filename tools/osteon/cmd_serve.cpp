@@ -10,7 +10,8 @@
 #include "cli.hpp"
 #include "serve.hpp"
 
-// osteon serve DIR [--port 8080] [--host 127.0.0.1] [--threads N]
+// osteon serve DIR [--port 8080] [--host 127.0.0.1] [--threads N] [--max-connections N]
+//                  [--max-per-client N] [--header-timeout S]
 // Serves a package folder (what `osteon pack` writes) over HTTP until SIGINT or SIGTERM; prints the
 // URL on stdout and one line per request on stderr.
 
@@ -66,8 +67,19 @@ void register_serve(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::Range(0, 65535));
   cmd->add_option("--host", options->host,
                   "address to listen on (default 127.0.0.1: this machine only)");
-  cmd->add_option("--threads", options->threads, "worker threads (default 64)")
-      ->check(CLI::Range(1, 1024));
+  cmd->add_option("--threads", options->threads,
+                  "event-loop (epoll) threads; no connection holds one (default 4)")
+      ->check(CLI::Range(1, 256));
+  cmd->add_option("--max-connections", options->max_connections,
+                  "connections served at once; a few more are answered 503 (default 2048)")
+      ->check(CLI::Range(1, 1000000));
+  cmd->add_option("--max-per-client", options->max_per_client,
+                  "connections from one address at once; 0: no limit (default: none on "
+                  "loopback, 64 otherwise)")
+      ->check(CLI::Range(0, 1000000));
+  cmd->add_option("--header-timeout", options->header_timeout_seconds,
+                  "seconds a request head may take to arrive, whatever its pace (default 5)")
+      ->check(CLI::Range(1, 3600));
   cmd->callback([options, run] { *run = [options] { return run_serve(*options); }; });
 }
 

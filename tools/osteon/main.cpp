@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
   register_repeats(app, &run);
   register_serve(app, &run);
   register_pack(app, &run);
+  register_export(app, &run);
   register_voxelize(app, &run);
   try {
     app.parse(argc, argv);
