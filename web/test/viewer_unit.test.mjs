@@ -18,7 +18,7 @@ import { after, before, describe, test } from 'node:test';
 import { Group, PerspectiveCamera, Raycaster, Vector3 } from 'three';
 
 import { defaultView, fitBox } from '../viewer/camera.mjs';
-import { determinant3, drawInfo, drawStats, findPart, formatLength, parseManifest, transformBox } from '../viewer/manifest.mjs';
+import { determinant3, drawInfo, drawStats, findPart, formatLength, kMaxEntries, parseManifest, transformBox } from '../viewer/manifest.mjs';
 import { cameraMatrices } from '../viewer/first_frames.mjs';
 import { createPackageScene, flipWinding } from '../viewer/scene.mjs';
 import { createChunkStream, createChunkCache, fetchRange, planChunks } from '../viewer/stream.mjs';
@@ -110,6 +110,21 @@ describe('manifest, scene and camera on a packed phantom', { skip: skipCli }, ()
     bad((j) => { j.stream_order.push(j.stream_order[0]); }, /appears twice/);
     bad((j) => { j.bounds.min = [0, 0, 'x']; }, /bounds\.min\[2\]/);
     assert.throws(() => parseManifest([]), /top level/);
+  });
+
+  test('a manifest listing more than kMaxEntries is refused before its entries are read; an Infinity matrix refuses its instance alone', () => {
+    const many = structuredClone(json);
+    many.instances = new Array(kMaxEntries + 1).fill(null);
+    assert.throws(() => parseManifest(many), new RegExp(`manifest\\.json: instances: ${kMaxEntries + 1} entries, this viewer reads at most ${kMaxEntries}`));
+    const infinite = structuredClone(json);
+    infinite.instances[1].matrix[13] = Infinity;  // JSON.parse reads 1e999 so
+    const m = parseManifest(infinite);
+    assert.deepEqual(m.refused, ['osteon: manifest.json: instances[1].matrix[13]: Infinity, not a finite number: the instance is not drawn']);
+    assert.equal(m.instances.length, json.instances.length - 1);
+    assert.deepEqual(m.instances.map((inst) => inst.index), m.instances.map((_, i) => i));
+    assert.equal(m.instances[1].source, 2);
+    assert.deepEqual([...m.instancesOf.values()].flat().sort((a, b) => a - b), m.instances.map((_, i) => i));
+    for (const b of m.partBounds) assert.ok([...b.min, ...b.max].every(Number.isFinite));
   });
 
   test('the scene draws one Mesh per single use, InstancedMesh batches for repeats, mirrored ones apart', () => {
@@ -421,6 +436,38 @@ describe('viewer helpers', () => {
     }).run();
     assert.deepEqual(decodes, ['c0+c2', 'c1+c3', 'c4+c5']);
     assert.deepEqual(chunkErrors, [`osteon: ${manifest.chunks[2].file}: more than the 20 bytes the manifest says`]);
+  });
+  test('a body that stalls fails its chunk\'s remaining ranges after stallMs; the next chunk still loads', async () => {
+    const { manifest, bytesOf } = fakePackage(2, 2, 10);
+    const failed = [];
+    const decoded = [];
+    let cancelled = 0;
+    await createChunkStream(planChunks(manifest), {
+      limit: 1,
+      stallMs: 50,
+      fetchChunk: async (chunk) => {
+        if (chunk.index === 1) return fakeResponse(bytesOf(1), { pieceSize: 5 });
+        let sent = false;
+        return {
+          ok: true,
+          status: 200,
+          body: {
+            getReader: () => ({
+              read: () => (sent ? new Promise(() => {}) : (sent = true, Promise.resolve({ done: false, value: bytesOf(0).subarray(0, 12) }))),
+              cancel: async () => { ++cancelled; },
+            }),
+          },
+        };
+      },
+      decode: async (buffer, range) => {
+        decoded.push(range.components[0].id);
+        return {};
+      },
+      onFailed: (range, message) => failed.push(message),
+    }).run();
+    assert.deepEqual(decoded, ['c0', 'c2', 'c3']);
+    assert.deepEqual(failed, [`osteon: ${manifest.chunks[0].file} (component c1, bytes 10-20): the download broke off after 12 of 20 bytes: no byte for 0.05 s`]);
+    assert.equal(cancelled, 1);
   });
 });
 

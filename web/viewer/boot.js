@@ -44,6 +44,37 @@ export function manifestUrlOf(src, base) {
   return url.href;
 }
 
+/// The largest manifest.json the viewer reads (docs/FORMAT.md, "manifest.json"): its parse is one
+/// task on the page's thread, tens of milliseconds a megabyte.
+export const kMaxManifestBytes = 16 << 20;
+
+/// The manifest's text, read no further than kMaxManifestBytes (refused by its Content-Length
+/// before the body is read, when the host sends one).
+async function readManifestText(response, name) {
+  const tooLarge = (bytes) => new Error(`osteon: ${name}: ${bytes} bytes, this viewer reads at most ${kMaxManifestBytes}`);
+  const declared = Number(response.headers.get('Content-Length'));
+  // Content-Length counts the bytes on the wire: a compressed body may hold more.
+  if (!response.headers.get('Content-Encoding') && declared > kMaxManifestBytes) {
+    response.body && response.body.cancel().catch(() => {});
+    throw tooLarge(declared);
+  }
+  if (!response.body || !response.body.getReader) return response.text();
+  const reader = response.body.getReader();
+  const pieces = [];
+  let size = 0;
+  for (;;) {
+    const { done, value } = await reader.read();
+    if (done) break;
+    size += value.length;
+    if (size > kMaxManifestBytes) {
+      reader.cancel().catch(() => {});
+      throw tooLarge(`more than ${size}`);
+    }
+    pieces.push(value);
+  }
+  return new TextDecoder().decode(await new Blob(pieces).arrayBuffer());
+}
+
 /// Starts one viewer's downloads and workers; returns the boot object (above). `canvas`: the
 /// viewer's canvas element; `manifestUrl`: absolute; `files`: the absolute URLs of the viewer's
 /// files { renderWorker, renderThree, decoderWorker, wasm } and, optionally, `renderWorkerCode`
@@ -70,7 +101,7 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
   boot.manifest = fetch(manifestUrl, { priority: 'high' }).then(
     async (response) => {
       if (!response.ok) throw new Error(`osteon: ${manifestName}: HTTP ${response.status}`);
-      const manifestText = await response.text();
+      const manifestText = await readManifestText(response, manifestName);
       boot.timings.manifest = performance.now();
       return manifestText;
     },

@@ -407,12 +407,17 @@ export class OsteonLoader extends Loader {
       } catch (e) {
         throw new Error(`osteon: ${url}: not JSON: ${e?.message ?? e}`);
       }
+      let manifest;
       try {
-        return parseManifest(json);
+        manifest = parseManifest(json);
       } catch (e) {
         // manifest.mjs names the field; the file is named by its URL here.
         throw new Error(message(e).replace(/^osteon: manifest\.json:/, `osteon: ${url}:`));
       }
+      // An instance the viewer leaves out and reports (a matrix with Infinity) ends a load here,
+      // as any failure does: the group is all or nothing.
+      if (manifest.refused.length) throw new Error(manifest.refused[0].replace(/^osteon: manifest\.json:/, `osteon: ${url}:`));
+      return manifest;
     } finally {
       this._busy(load, url, -1);
     }

@@ -13,6 +13,12 @@
 
 const kUnits = new Set(['mm', 'cm', 'm', 'in', 'unknown']);
 
+/// The most entries a manifest may list in each of chunks, parts, components, instances and
+/// stream_order (docs/FORMAT.md, "manifest.json", limits): 276 times BodyParts3D's 237
+/// components. Each costs the page a fetch-log entry, a list row or a draw batch, so a manifest
+/// listing a million would hold the page for seconds; it is refused before any entry is read.
+export const kMaxEntries = 65536;
+
 class ManifestError extends Error {}
 
 function fail(where, what) {
@@ -154,9 +160,10 @@ function levelsOf(c, where, chunks, component) {
 ///     triangles, vertices, error }; `first`, levels[0]), componentById: Map, instances, streamOrder
 ///     (component objects in fetch order), instancesOf: Map component id -> instance indices,
 ///     instancesOfPart: instance indices per part, partBounds: world box per part, groups,
-///     bytesTotal (the chunks' bytes) }
+///     bytesTotal (the chunks' bytes), refused (a message per instance not drawn: a matrix with
+///     Infinity) }
 /// Each instance gains `mirror` recomputed from its matrix's determinant (what decides the
-/// winding on screen) and `index`. Throws Error('osteon: manifest.json: <field>: <what>').
+/// winding on screen), `index` (in the instances drawn) and `source` (in the manifest's list). Throws Error('osteon: manifest.json: <field>: <what>').
 export function parseManifest(json) {
   if (!isObject(json)) fail('top level', 'expected a JSON object');
   if (json.format !== 'osteon-package') fail('format', `expected "osteon-package", got ${JSON.stringify(json.format)}`);
@@ -167,6 +174,7 @@ export function parseManifest(json) {
   const view = json.view === undefined ? null : viewOf(json.view);
   for (const key of ['chunks', 'parts', 'components', 'instances', 'stream_order']) {
     if (!Array.isArray(json[key])) fail(key, 'expected an array');
+    if (json[key].length > kMaxEntries) fail(key, `${json[key].length} entries, this viewer reads at most ${kMaxEntries}`);
   }
 
   const chunkFiles = new Set();
@@ -232,6 +240,7 @@ export function parseManifest(json) {
   const instancesOf = new Map(components.map((c) => [c.id, []]));
   const instancesOfPart = parts.map(() => []);
   const partBounds = parts.map(() => null);
+  const refused = [];
   const instances = json.instances.map((inst, i) => {
     const where = `instances[${i}]`;
     if (!isObject(inst)) fail(where, 'expected an object');
@@ -241,21 +250,34 @@ export function parseManifest(json) {
     const component = componentById.get(componentId);
     if (!component) fail(`${where}.component`, `no component ${JSON.stringify(componentId)}`);
     if (!Array.isArray(inst.matrix) || inst.matrix.length !== 16) fail(`${where}.matrix`, 'expected 16 numbers');
+    // JSON has no NaN, but 1e999 reads as Infinity: such an instance alone is refused (reported
+    // in `refused`), so one bad matrix neither hides the rest nor spoils the camera's box.
+    const infinite = inst.matrix.findIndex((v) => typeof v === 'number' && !Number.isFinite(v));
+    if (infinite >= 0) {
+      refused.push(`osteon: manifest.json: ${where}.matrix[${infinite}]: ${inst.matrix[infinite]}, not a finite number: the instance is not drawn`);
+      return null;
+    }
     const matrix = inst.matrix.map((v, k) => number(v, `${where}.matrix[${k}]`));
     const det = determinant3(matrix);
     if (!(Math.abs(det) > 0)) fail(`${where}.matrix`, 'singular (determinant 0)');
     const instance = {
       index: i,
+      source: i,
       part,
       component: componentId,
       matrix,
       mirror: det < 0,
       errorBound: inst.error_bound === undefined ? component.errorBound : number(inst.error_bound, `${where}.error_bound`),
     };
-    instancesOf.get(componentId).push(i);
-    instancesOfPart[part].push(i);
-    partBounds[part] = unionBox(partBounds[part], transformBox(component.bounds, matrix));
     return instance;
+  }).filter(Boolean);
+  // The refused instances leave no gap: indices count the drawn ones; `source` is the index in
+  // the manifest's own list (what messages name).
+  instances.forEach((instance, i) => {
+    instance.index = i;
+    instancesOf.get(instance.component).push(i);
+    instancesOfPart[instance.part].push(i);
+    partBounds[instance.part] = unionBox(partBounds[instance.part], transformBox(componentById.get(instance.component).bounds, instance.matrix));
   });
 
   const seen = new Set();
@@ -287,6 +309,7 @@ export function parseManifest(json) {
     instancesOfPart,
     partBounds,
     groups,
+    refused,
     bytesTotal: chunks.reduce((sum, c) => sum + (used.has(c.index) ? c.bytes : 0), 0),
   };
 }

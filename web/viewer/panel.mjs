@@ -15,11 +15,22 @@ export const $ = (state, id) => state.root.getElementById(id);
 // Status, errors, statistics
 
 /// Lists an 'osteon: ...' message in the error box and in window.osteon.errors.
+/// The box lists the first kErrorsListed and counts the rest: a package whose every component
+/// fails (tens of thousands, say) would otherwise cost a list row each, all at once.
+const kErrorsListed = 100;
+
 export function reportError(state, message) {
-  state.report.errors.push(message);
-  const li = document.createElement('li');
-  li.textContent = message;
-  $(state, 'error-list').append(li);
+  const { errors } = state.report;
+  errors.push(message);
+  const list = $(state, 'error-list');
+  if (errors.length <= kErrorsListed) {
+    const li = document.createElement('li');
+    li.textContent = message;  // text, never markup: messages quote names from the package
+    list.append(li);
+  } else {
+    if (errors.length === kErrorsListed + 1) list.append(document.createElement('li'));
+    list.lastElementChild.textContent = `and ${errors.length - kErrorsListed} more (the report lists them all)`;
+  }
   $(state, 'errors').hidden = false;
 }
 

@@ -357,7 +357,11 @@ function startThree(r) {
   if (r.frame === 0) drawFirstFrame(r);
   const waited = now(r) - r.contextAt;
   if (r.frame > 0 && canDrawFirst(r) && r.drawnComponents < r.manifest.components.length && waited < kFirstFramesWaitMs) {
-    r.threeTimer ??= setTimeout(() => startThree(r), kFirstFramesWaitMs - waited);
+    // Cleared when it fires: a timer that fires a little early must be able to wait again.
+    r.threeTimer ??= setTimeout(() => {
+      r.threeTimer = null;
+      startThree(r);
+    }, kFirstFramesWaitMs - waited);
     return;
   }
   clearTimeout(r.threeTimer);

@@ -12,9 +12,11 @@
 // and lose nothing in progressiveness. Two chunks in flight keep the link busy across the gap
 // between one chunk's end and the next one's first byte without splitting the bandwidth further.
 //
-// Failures stay as small as the data allows: a chunk that cannot be fetched, or that ends early,
-// fails only the components whose bytes had not all arrived (each one reported, naming the chunk
-// file); a stream the decoder rejects fails its component alone. The rest goes on.
+// Failures stay as small as the data allows: a chunk that cannot be fetched, that ends early, or
+// whose body stalls (kStallMs without a byte), fails only the components whose bytes had not all
+// arrived (each one reported, naming the chunk file); one that sends more than the manifest says
+// is read no further than that, and reported; a stream the decoder rejects fails its component
+// alone. The rest goes on.
 //
 // No DOM and no three.js: Node tests run it with fake fetch and decode.
 
@@ -71,8 +73,27 @@ function rangeLabel(file, range) {
 ///   onChunkError(chunk, message)                  a chunk longer than the manifest says (its
 ///                                                 ranges were all delivered; they decode or not)
 ///   limit (default 2), now (default performance.now), signal (an AbortSignal: once aborted, no
-///   further chunk is started; pass it to fetch() too, to cut the ones in flight)
+///   further chunk is started; pass it to fetch() too, to cut the ones in flight),
+///   stallMs (default kStallMs): a body that sends nothing for this long is given up, failing
+///   the chunk's remaining ranges, and the lane goes on to the next chunk
 /// run() resolves when every range is decoded or has failed; it never rejects for one failure.
+/// How long a chunk's body may send nothing before it is given up: a server that stalls
+/// mid-body would otherwise hold one of the two lanes, and the components behind it, forever.
+export const kStallMs = 15000;
+
+/// reader.read(), or a rejection once `ms` pass without an answer (the reader is then cancelled).
+function readWithin(reader, ms) {
+  let timer;
+  const stalled = new Promise((resolve, reject) => {
+    timer = setTimeout(() => {
+      // Rejected first: cancelling ends the pending read, which must not win the race.
+      reject(new Error(`no byte for ${ms / 1000} s`));
+      reader.cancel().catch(() => {});
+    }, ms);
+  });
+  return Promise.race([reader.read(), stalled]).finally(() => clearTimeout(timer));
+}
+
 export function createChunkStream(plan, options) {
   const {
     fetchChunk,
@@ -85,6 +106,7 @@ export function createChunkStream(plan, options) {
   } = options;
   const limit = Math.max(1, options.limit ?? 2);
   const now = options.now ?? (() => performance.now());
+  const stallMs = options.stallMs ?? kStallMs;
   let bytesReceived = 0;
   const decodes = [];
 
@@ -140,7 +162,7 @@ export function createChunkStream(plan, options) {
         take(new Uint8Array(await response.arrayBuffer()));
       } else {
         for (;;) {
-          const { done, value } = await reader.read();
+          const { done, value } = await readWithin(reader, stallMs);
           if (done) break;
           take(value);
           if (overflow) {

@@ -39,6 +39,8 @@ export function startLog(state) {
     error: null,
   }));
   for (const entry of report.fetchLog) state.logById.set(entry.id, entry);
+  // Instances the manifest's check refused (a matrix with Infinity): the rest is drawn.
+  for (const message of manifest.refused ?? []) reportError(state, message);
   state.levels = createLevelLoader(manifest, {
     report,
     base: state.boot.manifestUrl,

@@ -292,6 +292,33 @@ describe('bad input', () => {
     assert.deepEqual(decoder.decode(good), reference, 'the same mesh after the corruption');
   });
 
+  test('counts a stream cannot hold are refused before anything is allocated', async () => {
+    // A fresh instance, so its memory shows what this decode asked for. The header's counts
+    // (docs/FORMAT.md, bytes 8 and 12) claim up to 2^28 triangles, 3.2 GB of indices, or 10 GB
+    // with the positions and normals: the decoder bounds them by the stream's bytes (at most
+    // 1024 triangles a byte, no more vertices than three a triangle) and refuses, as the native
+    // decoder does (the same source).
+    const fresh = await wrapper.createDecoder();
+    fresh.decode(good);
+    const settled = fresh.memoryBytes();
+    const withCounts = (vertices, triangles) => {
+      const bytes = Uint8Array.from(good);
+      const view = new DataView(bytes.buffer);
+      view.setUint32(8, vertices, true);
+      view.setUint32(12, triangles, true);
+      return withChecksum(bytes);
+    };
+    for (const [vertices, triangles] of [[0x20000000, 0x3fffffff], [0xffffffff, 0xffffffff], [3 * 1024 * good.length, 1024 * good.length + 1], [0x10000000, 0x10000000 - 1]]) {
+      assertOsteonError(() => fresh.decode(withCounts(vertices, triangles), 'huge.ostm'),
+        new RegExp(`^osteon: huge\\.ostm: implausible counts: ${vertices} vertices, ${triangles} triangles in ${good.length} bytes`),
+        `${triangles} triangles`);
+    }
+    // More vertices than three a triangle.
+    const triangles = new DataView(good.buffer, good.byteOffset).getUint32(12, true);
+    assertOsteonError(() => fresh.decode(withCounts(3 * triangles + 1, triangles), 'huge.ostm'), /implausible counts/, 'vertices');
+    assert.equal(fresh.memoryBytes(), settled, 'no memory grew for the refused streams');
+  });
+
   test('ArrayBuffer input and views into a larger buffer', () => {
     const mesh = decoder.decode(good);
     const buffer = Uint8Array.from(good).buffer;
