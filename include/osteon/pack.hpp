@@ -31,8 +31,9 @@ const char* stage_name(PackStage stage);
 const char* stage_unit(PackStage stage);
 
 struct PackOptions {
-  /// The package folder; created when absent. Existing files other than the ones written are
-  /// left alone.
+  /// The package folder; created when absent. It must be absent, an empty folder or a package
+  /// (a folder with manifest.json), which is replaced whole: files the new package does not hold
+  /// go with the old one (docs/DESIGN.md "Publishing a package").
   std::string output;
   /// Quantization. By default every coordinate stays within `precision_mm` millimetres of the
   /// input, in each part's unit (a part of unknown unit counts as millimetres): one bound for a
@@ -116,11 +117,17 @@ struct PackReport {
 
 /// Packs the meshes read from `inputs` (files or folders, read_path) into options.output.
 /// Deterministic: the same inputs and options give byte-identical files (no timestamps; parts in
-/// input order, then read order). Nothing is written until every stage has succeeded; the
-/// manifest is written last, each file through a temporary file and a rename.
+/// input order, then read order). Nothing is written until every stage has succeeded; then the
+/// package is written into a fresh folder beside options.output (".DIR.osteon-tmp-<pid>-<hex>")
+/// and swapped in whole under an exclusive lock (".DIR.osteon-lock"), so DIR is always one
+/// complete package, the old or the new, whatever is killed when, and two packs into one DIR
+/// leave one of them (the second waits for the first's swap). What packs killed earlier left
+/// beside DIR is cleaned first (docs/FORMAT.md "Beside the package folder").
 /// Errors: those of read_path, segment, find_repeats and encode (naming the file); kInvalidData
 /// when no part has triangles or the names file does not parse; kInvalidArgument for an empty
-/// input list or output, or bits/precision out of range; kIoError when writing fails.
+/// input list or output, bits/precision out of range, or an output that is a file or a folder
+/// neither empty nor a package (checked before any work); kIoError when writing, locking or
+/// renaming fails.
 /// Known approximations: a repeat's error adds the sampled (lower-bound) Hausdorff tolerance it
 /// was accepted under to the quantization bound.
 Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options);

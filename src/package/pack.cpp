@@ -25,6 +25,7 @@
 #include "osteon/repeats.hpp"
 #include "osteon/segment.hpp"
 #include "package/package_internal.hpp"
+#include "package/publish.hpp"
 
 // Based on: FIPS 180-4 SHA-256 (through OpenSSL's EVP interface) for content-addressed file
 // names, as static hosts and CDNs cache immutable hashed assets.
@@ -762,13 +763,23 @@ Result<Built> build(const std::vector<std::string>& inputs, const PackOptions& o
 
 Result<PackReport> pack(const std::vector<std::string>& inputs, const PackOptions& options) {
   OSTEON_RETURN_IF_ERROR(check_options(inputs, options));
+  // Fails before any work when options.output is neither absent, empty nor a package.
+  OSTEON_RETURN_IF_ERROR(detail::prepare_package_folder(options.output));
   const auto start = Clock::now();
-  const Progress progress{options};
+  PackOptions staged = options;  // output: the fresh folder the write stage fills
+  staged.progress = detail::with_pause_hook(options.progress);
+  const Progress progress{staged};
   PackReport report;
   OSTEON_ASSIGN_OR_RETURN(Built built, build(inputs, options, progress, &report));
   const auto stage = Clock::now();
-  OSTEON_RETURN_IF_ERROR(write_stage(options, built.viewer_files, built.package.chunks,
+  // Written beside options.output, then swapped in whole (docs/DESIGN.md "Publishing a package").
+  OSTEON_ASSIGN_OR_RETURN(detail::StagedPackage folder,
+                          detail::stage_package_folder(options.output));
+  staged.output = folder.folder;
+  OSTEON_RETURN_IF_ERROR(write_stage(staged, built.viewer_files, built.package.chunks,
                                      built.package.manifest, progress, &report));
+  OSTEON_RETURN_IF_ERROR(detail::publish_package_folder(&folder));
+  report.manifest = (fs::path(options.output) / "manifest.json").string();
   report.timings.write_ms = ms_since(stage);
   report.timings.total_ms = ms_since(start);
   return report;

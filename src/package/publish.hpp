@@ -60,8 +60,9 @@ Result<StagedPackage> stage_package_folder(const std::string& dir);
 /// Puts the completed `staged` folder in the package folder's place: under the lock, cleans
 /// leftovers and checks the target again (prepare_package_folder), then swaps (one atomic
 /// exchange, or the target renamed aside, the new folder renamed in, and on failure the old one
-/// renamed back), then removes the old package. Errors: prepare_package_folder's; kIoError when
-/// a rename fails (the old package is then still in place).
+/// renamed back), then removes the old package (what a failed removal leaves, the next pack
+/// removes). Errors: prepare_package_folder's; kIoError when a rename fails (the old package is
+/// then still in place).
 Status publish_package_folder(StagedPackage* staged);
 
 }  // namespace osteon::detail

@@ -113,7 +113,9 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
   CLI::App* cmd = app.add_subcommand(
       "pack", "Read, clean, find repeats, segment and encode parts into a package folder");
   cmd->add_option("inputs", args->inputs, "mesh files, folders of parts or label volumes (.nii, .nii.gz, .nrrd, .nhdr)")->required();
-  cmd->add_option("-o,--output", args->options.output, "package folder")->required();
+  cmd->add_option("-o,--output", args->options.output,
+                  "package folder: absent, empty or a package, replaced whole when done")
+      ->required();
   CLI::Option* bits = cmd->add_option("--bits", args->options.bits,
                                       "bits per coordinate over a part's size (8..24), instead of the default 0.05 mm")
                           ->check(CLI::Range(8, 24));
