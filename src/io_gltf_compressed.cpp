@@ -204,10 +204,13 @@ const json* draco_of(const json& primitive) {
 Status view_bytes(const json& doc, uint64_t k, const uint8_t* bin, size_t bin_size,
                   const std::string& source, const std::string& where, const uint8_t** out,
                   size_t* size) {
-  const json& views = doc["bufferViews"];
-  if (!views.is_array() || k >= views.size() || !views[k].is_object()) {
+  // find, not operator[]: on a const document, [] of an absent key reads freed memory.
+  const auto views_it = doc.find("bufferViews");
+  if (views_it == doc.end() || !views_it->is_array() || k >= views_it->size() ||
+      !(*views_it)[k].is_object()) {
     return error(ErrorCode::kInvalidData, source, "no bufferView " + std::to_string(k), where);
   }
+  const json& views = *views_it;
   uint64_t buffer = 0, offset = 0, length = 0;
   if (!count_member(views[k], "buffer", UINT64_MAX, &buffer) ||
       !count_member(views[k], "byteOffset", 0, &offset) ||

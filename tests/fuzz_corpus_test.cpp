@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "../fuzz/manifest_fuzz_check.hpp"
+#include "../fuzz/seg_fuzz_check.hpp"
 #include "../fuzz/volume_fuzz_input.hpp"
 #include "fixtures.hpp"
 #include "osteon/diagnose.hpp"
@@ -15,8 +17,10 @@
 // Replays every file of the fuzzers' corpus (fuzz/corpus/<format>/: hand-made seeds, minimized
 // interesting inputs and crash- reproducers) through the reader the fuzzer for that folder uses,
 // then welds and diagnoses what it returns, exactly as fuzz/read_fuzzer.cpp does; the label-volume
-// corpus (nii, niigz, nrrd, nhdr) goes through read_volume as fuzz/volume_fuzzer.cpp does. Under
-// ASan+UBSan this keeps every past fuzzer finding fixed.
+// corpus (nii, niigz, nrrd, nhdr) goes through read_volume as fuzz/volume_fuzzer.cpp does, the
+// manifest corpus through parse_manifest and write_manifest as fuzz/manifest_fuzzer.cpp does, the
+// .seg corpus through parse_seg and the evaluator as fuzz/seg_fuzzer.cpp does. Under ASan+UBSan
+// this keeps every past fuzzer finding fixed.
 
 namespace osteon {
 namespace {
@@ -146,6 +150,37 @@ TEST(VolumeFuzzCorpusFiles, StaySmall) {
     EXPECT_LE(files.size(), 40u) << format;
     for (const fs::path& file : files) EXPECT_LT(fs::file_size(file), 4096u) << file;
   }
+}
+
+// ---- the manifest and .seg readers (fuzz/manifest_fuzzer.cpp, fuzz/seg_fuzzer.cpp) -----------
+
+/// Replays corpus/<format>/ through `one` (the fuzzer's own checks): no input may break a promise,
+/// and some of the seeds (valid files) must parse.
+template <typename Outcome>
+void replay_text_corpus(const std::string& format,
+                        Outcome (*one)(const uint8_t*, size_t, const std::string&)) {
+  std::vector<fs::path> files = corpus_files(format);
+  ASSERT_FALSE(files.empty()) << "no seeds in " << corpus_dir() << "/" << format;
+  EXPECT_LE(files.size(), 40u) << format;
+  size_t parsed = 0;
+  for (const fs::path& file : files) {
+    const std::string source = format + "/" + file.filename().string();
+    SCOPED_TRACE(source);
+    std::vector<uint8_t> bytes = test::read_bytes(file.string());
+    ASSERT_LT(bytes.size(), 4096u) << "corpus files stay small";
+    const Outcome outcome = one(bytes.data(), bytes.size(), source);
+    EXPECT_EQ(outcome.broken, "");
+    if (outcome.parsed) ++parsed;
+  }
+  EXPECT_GT(parsed, 0u) << "not one input of " << format << " parses";
+}
+
+TEST(ManifestFuzzCorpus, EveryInputParsesOrFailsCleanly) {
+  replay_text_corpus("manifest", &fuzz::manifest_fuzz_one);
+}
+
+TEST(SegFuzzCorpus, EveryInputParsesOrFailsCleanly) {
+  replay_text_corpus("seg", &fuzz::seg_fuzz_one);
 }
 
 }  // namespace

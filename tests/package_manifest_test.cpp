@@ -128,5 +128,51 @@ TEST(PackageManifest, NotJsonAndHugeInputsAreRefused) {
       << m.status().message();
 }
 
+// Every number of a manifest is a float: one beyond a float's range (held as infinity, written
+// back as null) and a matrix that only a double tells from singular (written back as zeros) are
+// refused, at the field, so what the parser accepts the writer can write and the parser read again.
+TEST(PackageManifest, NumbersAreFloats) {
+  const std::vector<uint8_t> file = read_bytes(kGolden + "/valid_single_part.json");
+  const nlohmann::json valid = nlohmann::json::parse(file.begin(), file.end());
+  auto refused_at = [](const nlohmann::json& m) {
+    const std::string text = m.dump();
+    Result<Manifest> parsed =
+        parse_manifest(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "manifest.json");
+    return parsed.ok() ? std::string("accepted") : parsed.status().message();
+  };
+  nlohmann::json m = valid;
+  m["bounds"]["max"][2] = 1e39;
+  EXPECT_NE(refused_at(m).find("manifest.json: bounds.max[2]: "), std::string::npos)
+      << refused_at(m);
+  m = valid;
+  m["components"][0]["error_bound"] = -1e39;
+  EXPECT_NE(refused_at(m).find("manifest.json: components[0].error_bound: "), std::string::npos)
+      << refused_at(m);
+  m = valid;
+  m["instances"][0]["matrix"][13] = 3.5e38;
+  EXPECT_NE(refused_at(m).find("manifest.json: instances[0].matrix[13]: "), std::string::npos)
+      << refused_at(m);
+  m = valid;
+  for (int k : {0, 5, 10}) m["instances"][0]["matrix"][k] = 1e-50;
+  EXPECT_NE(refused_at(m).find("manifest.json: instances[0].matrix: singular"), std::string::npos)
+      << refused_at(m);
+  // The largest float and a float's smallest step stay readable, and write back.
+  m = valid;
+  m["bounds"]["max"][2] = 3.4028235e38;  // the largest float, printed shortest (a bit above it)
+  m["components"][0]["error_bound"] = 3.4028235e38;
+  m["instances"][0]["error_bound"] = 3.4028235e38;
+  for (int k : {0, 5, 10}) m["instances"][0]["matrix"][k] = 1e-30;
+  const std::string text = m.dump();
+  Result<Manifest> parsed =
+      parse_manifest(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "manifest.json");
+  ASSERT_TRUE(parsed.ok()) << parsed.status().message();
+  const std::string written = write_manifest(parsed.value());
+  Result<Manifest> again = parse_manifest(reinterpret_cast<const uint8_t*>(written.data()),
+                                          written.size(), "manifest.json");
+  ASSERT_TRUE(again.ok()) << again.status().message();
+  EXPECT_EQ(again->bounds.max.z, parsed->bounds.max.z);
+  EXPECT_EQ(again->components[0].error_bound, parsed->components[0].error_bound);
+}
+
 }  // namespace
 }  // namespace osteon

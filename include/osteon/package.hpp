@@ -98,7 +98,8 @@ std::string write_manifest(const Manifest& manifest);
 
 /// Parses and checks manifest.json text: every field the format requires, each in range (chunk
 /// file names c/<24 hex>.ostc only, chunk and part indices, byte ranges inside their chunk, ids
-/// unique and known, 16 finite numbers in a non-singular matrix, boxes with min <= max, levels
+/// unique and known, every number within a float's range, 16 numbers in a matrix that is
+/// non-singular in double and once rounded to float (as drawn), boxes with min <= max, levels
 /// with increasing triangles and errors not below the component's bound, every component once in
 /// stream_order). Reads versions 2 and 3. Errors: kInvalidData naming `source` and the JSON path
 /// ("instances[3].matrix: ..."); kUnsupported for another version. Allocates O(size).

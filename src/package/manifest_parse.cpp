@@ -45,6 +45,11 @@ class Checker {
     if (!v.is_number() || !std::isfinite(v.get<double>())) {
       return fail(where, "expected a finite number, got " + shown(v));
     }
+    // Every number of the manifest is a float (drawn in float, written as the nearest float):
+    // one that rounds to a float's infinity would be read, and written back, as infinity.
+    if (std::isinf(static_cast<float>(v.get<double>()))) {
+      return fail(where, shown(v) + " is beyond a float's range");
+    }
     *out = v.get<double>();
     return true;
   }
@@ -322,8 +327,14 @@ bool parse_instances(const json& in, Checker& check,
         return false;
       }
     }
+    // Singular in float is singular as drawn (and as written back: entries below a float's
+    // smallest step are written as 0).
+    Mat4 drawn;
+    for (size_t k = 0; k < 16; ++k) drawn[k] = static_cast<float>(instance.matrix[k]);
     const double det = determinant3(instance.matrix);
-    if (!(std::abs(det) > 0)) return check.fail(where + ".matrix", "singular (determinant 0)");
+    if (!(std::abs(det) > 0) || !(std::abs(determinant3(drawn)) > 0)) {
+      return check.fail(where + ".matrix", "singular (determinant 0)");
+    }
     // The winding on screen follows the matrix, whatever the "mirror" field says.
     instance.mirror = det < 0;
     instance.error_bound = out->components[component->second].error_bound;

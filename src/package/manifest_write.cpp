@@ -25,10 +25,13 @@ double as_float(double value) {
   return ec == std::errc() ? std::strtod(std::string(text, end).c_str(), nullptr) : value;
 }
 
-/// A bound rounded up to a float: never below `value`.
+/// A bound rounded up to a float: never below `value`, but for a value above the largest float
+/// (within half its step, which parse_manifest reads), written as the largest float: JSON has no
+/// infinity.
 double bound_up(double value) {
   float f = static_cast<float>(value);
   if (static_cast<double>(f) < value) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  if (std::isinf(f)) f = std::copysign(std::numeric_limits<float>::max(), f);
   return as_float(f);
 }
 
