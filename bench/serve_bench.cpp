@@ -11,6 +11,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "serve_client.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -72,23 +74,6 @@ long rss_kib(pid_t pid) {
   return total;
 }
 
-int connect_from(int port, const char* source) {
-  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return -1;
-  sockaddr_in from{};
-  from.sin_family = AF_INET;
-  inet_pton(AF_INET, source, &from.sin_addr);
-  sockaddr_in to{};
-  to.sin_family = AF_INET;
-  to.sin_port = htons(static_cast<uint16_t>(port));
-  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof from) != 0 ||
-      connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof to) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
 
 int free_port() {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
@@ -105,7 +90,7 @@ int free_port() {
 bool wait_until_serving(int port, double seconds) {
   const auto until = Clock::now() + std::chrono::duration<double>(seconds);
   while (Clock::now() < until) {
-    const int fd = connect_from(port, "127.0.0.1");
+    const int fd = osteon::test::connect_loopback(port);
     if (fd >= 0) {
       close(fd);
       return true;
@@ -181,7 +166,7 @@ Latencies normal_client(int port, const std::string& path, const std::string& bo
 int slowloris(int port, int count, double seconds, std::atomic<int>* held) {
   std::vector<int> fds;
   auto open_one = [port] {
-    const int fd = connect_from(port, "127.0.0.1");
+    const int fd = osteon::test::connect_loopback(port);
     if (fd >= 0) {
       const char line[] = "GET /index.html HTTP/1.1\r\nHost: 127.0.0.1\r\n";
       send(fd, line, sizeof line - 1, MSG_NOSIGNAL);
@@ -290,7 +275,7 @@ std::string vanish_and_hostile(int port, const Site& site, int clients) {
   std::vector<std::thread> threads;
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
-      const int fd = connect_from(port, "127.0.0.1");
+      const int fd = osteon::test::connect_loopback(port);
       if (fd < 0) return;
       const std::string req = "GET " + site.largest + " HTTP/1.1\r\nHost: x\r\n\r\n";
       send(fd, req.data(), req.size(), MSG_NOSIGNAL);
@@ -321,7 +306,7 @@ std::string vanish_and_hostile(int port, const Site& site, int clients) {
       "GET /index%zz.html" + end};
   std::string statuses;
   for (const std::string& request : hostile) {
-    const int fd = connect_from(port, "127.0.0.1");
+    const int fd = osteon::test::connect_loopback(port);
     if (fd < 0) continue;
     send(fd, request.data(), request.size(), MSG_NOSIGNAL);
     char buffer[256] = {};

@@ -12,7 +12,7 @@
 #include <cstdlib>
 #include <string>
 
-// Raw HTTP/1.1 on loopback for the server's tests: requests sent byte for byte as given (no
+// Raw HTTP/1.1 on loopback for the server's tests and its bench (bench/serve_bench.cpp): requests sent byte for byte as given (no
 // client-side normalisation or escaping), from a chosen loopback source address (127.0.0.0/8 is
 // all loopback on Linux, so "other clients" can be told apart by address), with bounded waits.
 

@@ -37,7 +37,10 @@ std::vector<Vec3> compute_vertex_normals(const Mesh& mesh) {
   return normals;
 }
 
-Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source) {
+namespace {
+
+/// The checks every reader of a stream starts with: its length, magic and version.
+Status check_stream_header(const uint8_t* data, size_t size, const std::string& source) {
   if (size < detail::kStreamHeaderBytes + detail::kStreamChecksumBytes) {
     return error(ErrorCode::kInvalidData, source,
                  detail::message("too short for an osteon stream (% bytes, at least %)",
@@ -53,6 +56,13 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
                                  {data[4], detail::kStreamVersion}),
                  "byte 4");
   }
+  return Status();
+}
+
+}  // namespace
+
+Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source) {
+  OSTEON_RETURN_IF_ERROR(check_stream_header(data, size, source));
   uint32_t stored_crc = ByteReader::load<uint32_t>(data + size - 4, std::endian::little);
   if (detail::crc32(data, size - 4) != stored_crc) {
     return error(ErrorCode::kInvalidData, source, "checksum mismatch: the stream is corrupt",
@@ -125,21 +135,7 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
 }
 
 Result<QuantizationGrid> stream_grid(const uint8_t* data, size_t size, const std::string& source) {
-  if (size < detail::kStreamHeaderBytes + detail::kStreamChecksumBytes) {
-    return error(ErrorCode::kInvalidData, source,
-                 detail::message("too short for an osteon stream (% bytes, at least %)",
-                                 {size, detail::kStreamHeaderBytes + detail::kStreamChecksumBytes}),
-                 at_byte(size));
-  }
-  if (std::memcmp(data, detail::kStreamMagic, 4) != 0) {
-    return error(ErrorCode::kInvalidData, source, "not an osteon stream (wrong magic)", "byte 0");
-  }
-  if (data[4] != detail::kStreamVersion) {
-    return error(ErrorCode::kUnsupported, source,
-                 detail::message("stream version % (this decoder reads version %)",
-                                 {data[4], detail::kStreamVersion}),
-                 "byte 4");
-  }
+  OSTEON_RETURN_IF_ERROR(check_stream_header(data, size, source));
   ByteReader in(data, size);
   in.skip(16);
   double origin[3], step = 0;
