@@ -92,7 +92,7 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
     rendererError: null,
     decoders: [],
     decoderError: null,
-    timings: {},  // when the manifest and three.js's text arrived here (window.osteon.timings)
+    timings: {},  // when the manifest's answer, its text and three.js's text arrived here (window.osteon.timings)
   };
   const text = (e) => String((e && e.message) || e);
   // The renderer's messages: kept until main.mjs sets boot.deliver, then handed to it.
@@ -100,6 +100,7 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
 
   boot.manifest = fetch(manifestUrl, { priority: 'high' }).then(
     async (response) => {
+      boot.timings.manifestResponse = performance.now();
       if (!response.ok) throw new Error(`osteon: ${manifestName}: HTTP ${response.status}`);
       const manifestText = await readManifestText(response, manifestName);
       boot.timings.manifest = performance.now();

@@ -86,7 +86,7 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
       frames: 0,               // frames the renderer has drawn
       framePending: false,     // a change is waiting for its frame
       renderer: null,          // 'worker' (OffscreenCanvas) or 'page'
-      timings: {},             // the page's bootstrap: manifest, threeFetched; the renderer's start: started, context, firstFrames (absent when three.js drew the first frame), three, view, compiled
+      timings: {},             // the page's bootstrap: manifestResponse, manifest, threeFetched; the renderer's start: started, context, firstFrames (absent when three.js drew the first frame), three, view, compiled
       unit: null,
       background,
       selected: null,          // the selected part's display name
