@@ -17,12 +17,13 @@
 // section when the markers are absent).
 
 import { execFileSync } from 'node:child_process';
-import { existsSync, mkdirSync, readFileSync, readdirSync, renameSync, rmSync, statSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdirSync, readFileSync, readdirSync, rmSync, statSync } from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 import { parseCommandLine } from './lib/args.mjs';
+import { writeSection } from './lib/section.mjs';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const repo = path.resolve(here, '..');
@@ -171,15 +172,5 @@ const body = [
 console.log(body);
 
 if (values.write) {
-  const file = path.resolve(repo, values.write);
-  const text = readFileSync(file, 'utf8');
-  const begin = text.indexOf(kBegin);
-  const end = text.indexOf(kEnd);
-  const next = begin >= 0 && end > begin
-    ? `${text.slice(0, begin + kBegin.length)}\n${body}\n${text.slice(end)}`
-    : `${text.replace(/\n*$/, '\n')}\n${kHeading}\n\n${kBegin}\n${body}\n${kEnd}\n`;
-  const temporary = `${file}.export_bench.tmp`;
-  writeFileSync(temporary, next);
-  renameSync(temporary, file);
-  console.log(`osteon: wrote the section between its markers in ${file}`);
+  writeSection(path.resolve(repo, values.write), { heading: kHeading, begin: kBegin, end: kEnd, body, tag: 'export_bench' });
 }

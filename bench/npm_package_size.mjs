@@ -12,13 +12,14 @@
 // section the first time); the other sections are left as they are.
 
 import { execFileSync } from 'node:child_process';
-import { mkdirSync, readFileSync, readdirSync, renameSync, rmSync, statSync, writeFileSync } from 'node:fs';
+import { mkdirSync, readFileSync, readdirSync, rmSync, statSync, writeFileSync } from 'node:fs';
 import { createRequire } from 'node:module';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 import { parseCommandLine } from './lib/args.mjs';
+import { writeSection } from './lib/section.mjs';
 
 const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..');
 const web = path.join(repo, 'web');
@@ -116,15 +117,5 @@ const body = [
 console.log(body);
 
 if (write) {
-  const file = path.resolve(repo, write);
-  const text = readFileSync(file, 'utf8');
-  const begin = text.indexOf(kBegin);
-  const end = text.indexOf(kEnd);
-  const next = begin >= 0 && end > begin
-    ? `${text.slice(0, begin + kBegin.length)}\n${body}\n${text.slice(end)}`
-    : `${text.replace(/\n*$/, '\n')}\n${kHeading}\n\n${kBegin}\n${body}\n${kEnd}\n`;
-  const temporary = `${file}.npm_package_size.tmp`;
-  writeFileSync(temporary, next);
-  renameSync(temporary, file);
-  console.log(`osteon: wrote the section between its markers in ${file}`);
+  writeSection(path.resolve(repo, write), { heading: kHeading, begin: kBegin, end: kEnd, body, tag: 'npm_package_size' });
 }
