@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "osteon/package.hpp"
 
@@ -46,8 +49,31 @@ inline bool range_ok(const Manifest& m, uint64_t chunk, uint64_t offset, uint64_
 inline std::string broken(const Manifest& m) {
   if (!box_ok(m.bounds)) return "bad bounds";
   if (m.has_view && !(finite(m.view_up) && finite(m.view_eye))) return "non-finite view";
+  const auto names_ok = [&](const std::map<std::string, std::string>& names) {
+    for (const auto& [tag, text] : names) {
+      if (std::find(m.languages.begin(), m.languages.end(), tag) == m.languages.end()) return false;
+    }
+    return true;
+  };
+  if (m.languages.size() > kMaxLanguages) return "too many languages";
+  if (std::set<std::string>(m.languages.begin(), m.languages.end()).size() != m.languages.size())
+    return "a language twice";
+  if (m.groups.size() > kMaxGroups) return "too many groups";
+  std::vector<int> depth;
+  for (size_t g = 0; g < m.groups.size(); ++g) {
+    const ManifestGroup& group = m.groups[g];
+    if (group.name.empty()) return "empty group name";
+    if (group.parent >= int64_t(g) || group.parent < -1)
+      return "group parent not earlier: " + group.name;
+    depth.push_back(group.parent < 0 ? 1 : depth[size_t(group.parent)] + 1);
+    if (depth.back() > kMaxGroupDepth) return "groups too deep: " + group.name;
+    if (!names_ok(group.names)) return "group name in an unlisted language: " + group.name;
+  }
   for (const ManifestPart& part : m.parts) {
     if (part.prototype >= m.parts.size()) return "prototype out of range: " + part.name;
+    if (part.path < -1 || part.path >= int64_t(m.groups.size()))
+      return "path out of range: " + part.name;
+    if (!names_ok(part.names)) return "part name in an unlisted language: " + part.name;
     const Vec3& c = part.color;
     if (part.has_color && !(c.x >= 0 && c.x <= 1 && c.y >= 0 && c.y <= 1 && c.z >= 0 && c.z <= 1))
       return "color out of 0..1: " + part.name;
