@@ -542,7 +542,7 @@ int main(int argc, char** argv) {
     stop_child(pid);
   }
 
-  std::string command = "build/serve/serve_bench";
+  std::string command = "build-bench/serve_bench";
   for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
   std::string body;
   body += "```sh\n" + command + "\n```\n\n";
