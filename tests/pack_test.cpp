@@ -20,8 +20,9 @@
 #include "osteon/codec.hpp"
 #include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
-#include "support/phantom.hpp"
+#include "osteon/package.hpp"
 #include "osteon/repeats.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {
@@ -275,6 +276,119 @@ TEST(Pack, NamesFromCsvAndJson) {
       EXPECT_EQ(part["display_name"], "Left femur");
     }
   }
+}
+
+// Regions and languages from the names file: each path becomes groups (shared prefixes once,
+// in the parts' order, after their parents), "group" the path joined by " / ", and names in
+// other languages kept per part and per group.
+TEST(Pack, GroupsAndLanguagesFromTheNamesFile) {
+  const std::string input = write_phantom();
+  const std::string dir = scratch_dir();
+  PackOptions options;
+  options.output = dir + "/regions";
+  options.names = std::string(OSTEON_SOURCE_DIR) + "/tests/data/names/regions.json";
+  ASSERT_TRUE(pack({input}, options).ok());
+  const nlohmann::json m = read_manifest(options.output);
+  EXPECT_EQ(m["languages"], nlohmann::json::array({"en", "la", "ja"}));
+  std::vector<std::string> tree;
+  for (const nlohmann::json& g : m["groups"]) {
+    const int parent = g.contains("parent") ? g["parent"].get<int>() : -1;
+    tree.push_back((parent < 0 ? std::string() : tree[size_t(parent)] + " / ") +
+                   g["name"].get<std::string>());
+  }
+  EXPECT_EQ(tree, (std::vector<std::string>{
+                      "Skeleton", "Skeleton / Lower limb", "Skeleton / Lower limb / Left",
+                      "Skeleton / Lower limb / Right", "Skeleton / Vertebral column"}));
+  EXPECT_EQ(m["groups"][1]["names"]["la"], "Membrum inferius");
+  EXPECT_EQ(m["groups"][3]["names"]["la"], "Dexter");
+  size_t checked = 0;
+  for (const nlohmann::json& part : m["parts"]) {
+    const std::string name = part["name"];
+    if (name == "femur_l") {
+      EXPECT_EQ(part["path"], 2);
+      EXPECT_EQ(part["group"], "Skeleton / Lower limb / Left");
+      EXPECT_EQ(part["names"]["ja"], "\xE5\xB7\xA6\xE5\xA4\xA7\xE8\x85\xBF\xE9\xAA\xA8");
+      EXPECT_EQ(part["system"], "Skeletal system");
+      ++checked;
+    } else if (name == "vertebra_l2") {
+      EXPECT_EQ(part["path"], 4);
+      EXPECT_EQ(part["group"], "Skeleton / Vertebral column");
+      EXPECT_FALSE(part.contains("names"));
+      EXPECT_FALSE(part.contains("system"));
+      ++checked;
+    } else if (name == "skull") {
+      EXPECT_FALSE(part.contains("path"));  // a plain group string, no path
+      EXPECT_EQ(part["group"], "head");
+      ++checked;
+    } else if (name == "pelvis") {
+      EXPECT_FALSE(part.contains("path"));  // not in the names file
+      EXPECT_EQ(part["group"], "");
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 4u);
+
+  // A CSV header names its columns: path, system, name:<tag>; display_name:<tag> names the
+  // display names' language.
+  test::write_bytes(
+      dir + "/names.csv",
+      "stem,display_name:en,path,system,name:la\n"
+      "femur_l,Left femur,Skeleton / Lower limb / Left,Skeletal system,Femur sinistrum\n"
+      "skull,Skull,Skeleton / Head,,\n");
+  options.output = dir + "/csv";
+  options.names = dir + "/names.csv";
+  ASSERT_TRUE(pack({input}, options).ok());
+  const nlohmann::json csv = read_manifest(options.output);
+  EXPECT_EQ(csv["languages"], nlohmann::json::array({"en", "la"}));
+  EXPECT_EQ(csv["groups"].size(), 4u);
+  for (const nlohmann::json& part : csv["parts"]) {
+    if (part["name"] == "femur_l") {
+      EXPECT_EQ(part["names"]["la"], "Femur sinistrum");
+    }
+    if (part["name"] == "skull") {
+      EXPECT_FALSE(part.contains("system"));
+    }
+  }
+
+  // Without a list of languages, they are "und" (the display names') and the tags used.
+  test::write_bytes(dir + "/unlisted.json",
+                    R"([{"file": "skull", "names": {"la": "Cranium", "de": "Schaedel"}}])");
+  options.output = dir + "/unlisted";
+  options.names = dir + "/unlisted.json";
+  ASSERT_TRUE(pack({input}, options).ok());
+  EXPECT_EQ(read_manifest(options.output)["languages"], nlohmann::json::array({"und", "de", "la"}));
+
+  // Bad names files name the file and the entry; no package is left.
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"languages": ["en"], "parts": [{"file": "skull", "names": {"la": "Cranium"}}]})",
+       "skull: names.la: \"la\" is not in languages"},
+      {R"({"languages": ["en", "en"], "parts": []})", "languages: \"en\" appears twice"},
+      {R"({"languages": ["english"], "parts": []})", "languages[0]: expected a language tag"},
+      {R"([{"file": "skull", "path": ["Skeleton", ""]}])", "skull: path[1]: an empty group name"},
+      {R"([{"file": "skull", "path": 7}])", "skull: path: expected an array of group names"},
+      {R"([{"file": "skull", "names": {"la": 7}}])", "skull: names.la: expected a string"},
+  };
+  for (size_t k = 0; k < bad.size(); ++k) {
+    const std::string file = dir + "/bad" + std::to_string(k) + ".json";
+    test::write_bytes(file, bad[k].first);
+    options.output = dir + "/bad" + std::to_string(k);
+    options.names = file;
+    const Result<PackReport> report = pack({input}, options);
+    ASSERT_FALSE(report.ok()) << bad[k].first;
+    EXPECT_NE(report.status().message().find(file + ": " + bad[k].second), std::string::npos)
+        << report.status().message();
+    EXPECT_FALSE(fs::exists(options.output + "/manifest.json"));
+  }
+  std::string deep = "[{\"file\": \"skull\", \"path\": [";
+  for (int k = 0; k <= kMaxGroupDepth; ++k)
+    deep += (k ? ", \"g" : "\"g") + std::to_string(k) + "\"";
+  test::write_bytes(dir + "/deep.json", deep + "]}]");
+  options.output = dir + "/deep";
+  options.names = dir + "/deep.json";
+  const Result<PackReport> report = pack({input}, options);
+  ASSERT_FALSE(report.ok());
+  EXPECT_NE(report.status().message().find("skull: path: 33 groups, at most 32"), std::string::npos)
+      << report.status().message();
 }
 
 TEST(Pack, CliSummaryAndBadInput) {

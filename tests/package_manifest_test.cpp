@@ -80,6 +80,50 @@ TEST(PackageManifest, FieldsReadAsWritten) {
   }
 }
 
+// Groups, languages, part paths, names and systems read as written, and write back the same
+// (all but the error bounds, rounded up each time they are written).
+TEST(PackageManifest, GroupsAndLanguagesReadAsWritten) {
+  const std::vector<uint8_t> file = read_bytes(kGolden + "/valid_regions.json");
+  Result<Manifest> m = parse_manifest(file.data(), file.size(), "manifest.json");
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_EQ(m->languages, (std::vector<std::string>{"en", "la", "ja"}));
+  ASSERT_EQ(m->groups.size(), 5u);
+  EXPECT_EQ(m->groups[0].parent, -1);
+  EXPECT_EQ(m->groups[2].name, "Left");
+  EXPECT_EQ(m->groups[2].parent, 1);
+  EXPECT_EQ(m->groups[1].names.at("la"), "Membrum inferius");
+  EXPECT_TRUE(m->groups[2].names.empty());
+  ASSERT_EQ(m->parts.size(), 5u);
+  EXPECT_EQ(m->parts[0].path, 2);
+  EXPECT_EQ(m->parts[0].names.at("la"), "Femur sinistrum");
+  EXPECT_EQ(m->parts[0].system, "Skeletal system");
+  EXPECT_EQ(m->parts[2].path, -1);
+  EXPECT_TRUE(m->parts[2].names.empty());
+  const auto without_bounds = [](nlohmann::json j) {
+    for (const char* key : {"components", "instances"}) {
+      for (nlohmann::json& entry : j[key]) entry.erase("error_bound");
+    }
+    return j;
+  };
+  const std::string text_back = write_manifest(m.value());
+  EXPECT_EQ(without_bounds(nlohmann::json::parse(text_back)),
+            without_bounds(nlohmann::json::parse(file.begin(), file.end())));
+
+  // Without them nothing is written: older packages keep their bytes.
+  Manifest plain = m.value();
+  plain.languages.clear();
+  plain.groups.clear();
+  for (ManifestPart& part : plain.parts) {
+    part.path = -1;
+    part.names.clear();
+    part.system.clear();
+  }
+  const std::string text = write_manifest(plain);
+  for (const char* key : {"\"languages\"", "\"groups\"", "\"path\"", "\"names\"", "\"system\""}) {
+    EXPECT_EQ(text.find(key), std::string::npos) << key;
+  }
+}
+
 // What the writer writes, the parser reads back field for field; writing that again gives the
 // same bytes for everything but the error bounds (rounded up each time they are written).
 TEST(PackageManifest, WriterAndParserAgree) {

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -36,7 +37,27 @@ struct ManifestPart {
   uint64_t prototype = 0;  ///< the part whose components it draws (itself unless a repeat)
   bool has_color = false;  ///< "color" is written only when set
   Vec3 color{0, 0, 0};     ///< sRGB, each 0..1
+  /// Index into Manifest::groups of the part's deepest group (its path is that group and its
+  /// ancestors); -1: none. When set, `group` is the path's names joined with " / ".
+  int64_t path = -1;
+  /// The part's name in other languages: language tag -> name, each tag in Manifest::languages.
+  std::map<std::string, std::string> names;
+  std::string system;  ///< e.g. "Skeletal system", "Cartilage"; empty: none
 };
+
+/// A node of the tree of regions parts are grouped in ("Skeleton" > "Lower limb" > "Right").
+struct ManifestGroup {
+  std::string name;     ///< non-empty, in the manifest's first language
+  int64_t parent = -1;  ///< index of an earlier group; -1 for a root
+  /// The group's name in other languages: language tag -> name, each tag in Manifest::languages.
+  std::map<std::string, std::string> names;
+};
+
+/// The most languages, groups and group levels a manifest may hold (docs/FORMAT.md "Groups and
+/// languages").
+inline constexpr size_t kMaxLanguages = 64;
+inline constexpr size_t kMaxGroups = 65536;
+inline constexpr int kMaxGroupDepth = 32;
 
 /// A coarser level of detail of a component (docs/FORMAT.md "Levels of detail").
 struct ManifestLevel {
@@ -84,6 +105,11 @@ struct Manifest {
   bool has_view = false;
   Vec3 view_up{0, 0, 1};
   Vec3 view_eye{0, -1, 0};
+  /// Language tags (BCP 47: "en", "la", "pt-BR"), unique; the first is the language of every
+  /// display_name and group name; empty: display names only.
+  std::vector<std::string> languages;
+  /// The region tree, each group after its parent; empty: parts carry only their group string.
+  std::vector<ManifestGroup> groups;
   std::vector<ManifestChunk> chunks;
   std::vector<ManifestPart> parts;
   std::vector<ManifestComponent> components;
@@ -101,7 +127,9 @@ std::string write_manifest(const Manifest& manifest);
 /// unique and known, every number within a float's range, 16 numbers in a matrix that is
 /// non-singular in double and once rounded to float (as drawn), boxes with min <= max, levels
 /// with increasing triangles and errors not below the component's bound, every component once in
-/// stream_order). Reads versions 2 and 3. Errors: kInvalidData naming `source` and the JSON path
+/// stream_order; languages well-formed and unique, groups after their parents and at most 32
+/// deep, names only in the manifest's languages, part paths naming a group). Reads versions 2
+/// and 3. Errors: kInvalidData naming `source` and the JSON path
 /// ("instances[3].matrix: ..."); kUnsupported for another version. Allocates O(size).
 Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::string& source);
 

@@ -479,6 +479,16 @@ json part_json(const Manifest& manifest, size_t p) {
   std::smatch match;
   if (std::regex_search(part.name, match, kFma)) j["fma"] = "FMA" + match[1].str();
   if (part.has_color) j["color"] = {part.color.x, part.color.y, part.color.z};
+  // Its regions, outermost first ("Skeleton", "Lower limb", "Left"), and its other names.
+  if (part.path >= 0) {
+    json path = json::array();
+    for (int64_t g = part.path; g >= 0; g = manifest.groups[size_t(g)].parent) {
+      path.insert(path.begin(), manifest.groups[size_t(g)].name);
+    }
+    j["path"] = std::move(path);
+  }
+  if (!part.names.empty()) j["names"] = part.names;
+  if (!part.system.empty()) j["system"] = part.system;
   return j;
 }
 
@@ -657,6 +667,7 @@ Status export_gltf(const PackageData& package, const std::string& path,
                        {"version", 1},
                        {"unit", unit_name(manifest.unit)},
                        {"error_bound", report.error_bound}}}}}});
+  if (!manifest.languages.empty()) nodes[0]["extras"]["osteon"]["languages"] = manifest.languages;
   std::vector<size_t> root_children;
   std::map<std::string, size_t> group_node;
   std::vector<std::vector<size_t>> group_children;

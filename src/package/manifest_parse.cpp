@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "osteon/package.hpp"
+#include "package/package_internal.hpp"
 
 // The one C++ parser of manifest.json (docs/FORMAT.md "Package, version 3"; version 2 too). It checks what the
 // viewer's parser (web/viewer/manifest.mjs) checks, in the same order and naming the same JSON
@@ -17,6 +19,25 @@
 // are tested on. The manifest comes from a folder or a server: nothing in it is trusted.
 
 namespace osteon {
+
+namespace detail {
+
+bool is_language_tag(const std::string& tag) {
+  const auto alpha = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); };
+  const auto alnum = [&](char c) { return alpha(c) || (c >= '0' && c <= '9'); };
+  size_t i = 0;
+  while (i < tag.size() && alpha(tag[i])) ++i;
+  if (i < 2 || i > 3) return false;
+  while (i < tag.size()) {
+    if (tag[i] != '-') return false;
+    const size_t start = ++i;
+    while (i < tag.size() && alnum(tag[i])) ++i;
+    if (i - start < 1 || i - start > 8) return false;
+  }
+  return true;
+}
+
+}  // namespace detail
 
 namespace {
 
@@ -164,6 +185,83 @@ bool parse_chunks(const json& in, Checker& check, Manifest* out) {
   return true;
 }
 
+bool parse_languages(const json& root, Checker& check, Manifest* out) {
+  if (!root.contains("languages")) return true;
+  const json& in = root["languages"];
+  if (!in.is_array()) return check.fail("languages", "expected an array of language tags");
+  if (in.size() > kMaxLanguages) {
+    return check.fail("languages", std::to_string(in.size()) + " languages, at most " +
+                                       std::to_string(kMaxLanguages));
+  }
+  for (size_t k = 0; k < in.size(); ++k) {
+    std::string tag;
+    if (!check.string(in[k], at("languages", k), &tag)) return false;
+    if (!detail::is_language_tag(tag)) {
+      return check.fail(at("languages", k),
+                        "expected a language tag (\"en\", \"pt-BR\"), got " + json(tag).dump());
+    }
+    if (std::find(out->languages.begin(), out->languages.end(), tag) != out->languages.end()) {
+      return check.fail(at("languages", k), json(tag).dump() + " appears twice");
+    }
+    out->languages.push_back(std::move(tag));
+  }
+  return true;
+}
+
+/// An optional "names" object {tag: name} of a group or part, its tags in the languages.
+bool parse_names(const json& object, const std::string& where, Checker& check, const Manifest& m,
+                 std::map<std::string, std::string>* out) {
+  if (!object.contains("names")) return true;
+  const json& in = object["names"];
+  if (!in.is_object()) return check.fail(where + ".names", "expected an object {tag: name}");
+  for (auto it = in.begin(); it != in.end(); ++it) {
+    const std::string at_tag = where + ".names." + it.key();
+    if (std::find(m.languages.begin(), m.languages.end(), it.key()) == m.languages.end()) {
+      return check.fail(at_tag, json(it.key()).dump() + " is not in languages");
+    }
+    std::string name;
+    if (!check.string(it.value(), at_tag, &name)) return false;
+    out->emplace(it.key(), std::move(name));
+  }
+  return true;
+}
+
+bool parse_groups(const json& root, Checker& check, Manifest* out) {
+  if (!root.contains("groups")) return true;
+  const json& in = root["groups"];
+  if (!in.is_array()) return check.fail("groups", "expected an array");
+  if (in.size() > kMaxGroups) {
+    return check.fail("groups",
+                      std::to_string(in.size()) + " groups, at most " + std::to_string(kMaxGroups));
+  }
+  std::vector<int> depth;
+  for (size_t i = 0; i < in.size(); ++i) {
+    const std::string where = at("groups", i);
+    if (!check.object(in[i], where)) return false;
+    ManifestGroup group;
+    if (!check.string(Checker::member(in[i], "name"), where + ".name", &group.name)) return false;
+    if (group.name.empty()) return check.fail(where + ".name", "expected a non-empty name");
+    if (in[i].contains("parent")) {
+      uint64_t parent = 0;
+      if (!check.count(in[i]["parent"], where + ".parent", &parent)) return false;
+      if (parent >= i) {
+        return check.fail(where + ".parent", "expected an earlier group's index (below " +
+                                                 std::to_string(i) + "), got " +
+                                                 std::to_string(parent));
+      }
+      group.parent = static_cast<int64_t>(parent);
+    }
+    depth.push_back(group.parent < 0 ? 1 : depth[size_t(group.parent)] + 1);
+    if (depth.back() > kMaxGroupDepth) {
+      return check.fail(where + ".parent",
+                        "groups nested deeper than " + std::to_string(kMaxGroupDepth));
+    }
+    if (!parse_names(in[i], where, check, *out, &group.names)) return false;
+    out->groups.push_back(std::move(group));
+  }
+  return true;
+}
+
 bool parse_parts(const json& in, Checker& check, Manifest* out) {
   for (size_t i = 0; i < in.size(); ++i) {
     const std::string where = at("parts", i);
@@ -193,6 +291,20 @@ bool parse_parts(const json& in, Checker& check, Manifest* out) {
         }
       }
       part.has_color = true;
+    }
+    if (p.contains("path")) {
+      uint64_t path = 0;
+      if (!check.count(p["path"], where + ".path", &path)) return false;
+      if (path >= out->groups.size()) {
+        return check.fail(where + ".path", "no group " + std::to_string(path) +
+                                               " (the package has " +
+                                               std::to_string(out->groups.size()) + ")");
+      }
+      part.path = static_cast<int64_t>(path);
+    }
+    if (!parse_names(p, where, check, *out, &part.names) ||
+        !check.optional_string(p, "system", where + ".system", "", &part.system)) {
+      return false;
     }
     out->parts.push_back(std::move(part));
   }
@@ -431,7 +543,8 @@ Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::str
     }
   }
   std::unordered_map<std::string, size_t> index_of;
-  const bool ok = parse_chunks(in["chunks"], check, &manifest) &&
+  const bool ok = parse_languages(in, check, &manifest) && parse_groups(in, check, &manifest) &&
+                  parse_chunks(in["chunks"], check, &manifest) &&
                   parse_parts(in["parts"], check, &manifest) &&
                   parse_components(in["components"], check, &manifest, &index_of) &&
                   parse_instances(in["instances"], check, index_of, &manifest) &&

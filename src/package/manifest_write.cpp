@@ -67,6 +67,9 @@ std::string write_manifest(const Manifest& manifest) {
                   {"triangles", part.triangles},
                   {"prototype", part.prototype}};
     if (part.has_color) entry["color"] = vec_json(part.color);
+    if (part.path >= 0) entry["path"] = part.path;
+    if (!part.names.empty()) entry["names"] = part.names;
+    if (!part.system.empty()) entry["system"] = part.system;
     parts.push_back(std::move(entry));
   }
   json components = json::array();
@@ -109,6 +112,19 @@ std::string write_manifest(const Manifest& manifest) {
   out["bounds"] = box_json(manifest.bounds);
   if (manifest.has_view) {
     out["view"] = {{"up", vec_json(manifest.view_up)}, {"eye", vec_json(manifest.view_eye)}};
+  }
+  // Groups and languages only when there are any: a package without them is byte-identical to
+  // one written before they existed.
+  if (!manifest.languages.empty()) out["languages"] = manifest.languages;
+  if (!manifest.groups.empty()) {
+    json groups = json::array();
+    for (const ManifestGroup& group : manifest.groups) {
+      json entry = {{"name", group.name}};
+      if (group.parent >= 0) entry["parent"] = group.parent;
+      if (!group.names.empty()) entry["names"] = group.names;
+      groups.push_back(std::move(entry));
+    }
+    out["groups"] = std::move(groups);
   }
   out["parts"] = std::move(parts);
   out["components"] = std::move(components);

@@ -189,7 +189,7 @@ Status check_options(const std::vector<std::string>& inputs, const PackOptions& 
 struct Inputs {
   std::vector<Mesh> parts;
   ViewerFiles viewer_files;
-  std::map<std::string, detail::DisplayName> names;
+  detail::Names names;
 };
 
 /// Read: every input, plus the viewer's files and the names file first, so that a missing one
@@ -566,9 +566,8 @@ std::vector<std::vector<uint8_t>> chunk_streams(const std::vector<size_t>& strea
 /// The manifest and the chunks' bytes: instances, stream order (components by decreasing summed
 /// projected area of their instances), chunks, parts with their display names.
 Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
-                        const std::map<std::string, detail::DisplayName>& names,
-                        uint64_t chunk_bytes, EncodedParts* encoded,
-                        std::vector<std::vector<uint8_t>>* chunk_data) {
+                        const detail::Names& names_file, uint64_t chunk_bytes,
+                        EncodedParts* encoded, std::vector<std::vector<uint8_t>>* chunk_data) {
   Manifest manifest;
   manifest.unit = parts.front().unit;
   // Label volumes are read into the patient's frame (LPS: +z superior, -y anterior), so a package
@@ -583,6 +582,23 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
   std::stable_sort(stream.begin(), stream.end(),
                    [&](size_t a, size_t b) { return area_of[a] > area_of[b]; });
   *chunk_data = chunk_streams(stream, chunk_bytes, &encoded->components, &manifest.chunks);
+  const std::map<std::string, detail::DisplayName>& names = names_file.parts;
+  manifest.languages = names_file.languages;
+  // The region tree: one group per distinct path prefix, in the order the parts first reach it,
+  // each after its parent; a group's names in other languages are the first ones given.
+  std::map<std::pair<int64_t, std::string>, int64_t> group_of;
+  const auto add_path = [&](const std::vector<detail::GroupName>& path) {
+    int64_t parent = -1;
+    for (const detail::GroupName& g : path) {
+      const auto [it, added] =
+          group_of.emplace(std::make_pair(parent, g.name), int64_t(manifest.groups.size()));
+      if (added) manifest.groups.push_back({g.name, parent, {}});
+      ManifestGroup& group = manifest.groups[size_t(it->second)];
+      for (const auto& [tag, text] : g.names) group.names.emplace(tag, text);
+      parent = it->second;
+    }
+    return parent;
+  };
   for (size_t p = 0; p < parts.size(); ++p) {
     ManifestPart part;
     part.name = parts[p].name;
@@ -593,6 +609,15 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     if (named != names.end()) {
       if (!named->second.name.empty()) part.display_name = named->second.name;
       part.group = named->second.group;
+      part.names = named->second.names;
+      part.system = named->second.system;
+      if (!named->second.path.empty()) {
+        part.path = add_path(named->second.path);
+        part.group.clear();
+        for (const detail::GroupName& g : named->second.path) {
+          part.group += (part.group.empty() ? "" : " / ") + g.name;
+        }
+      }
     }
     part.source = fs::path(parts[p].source).filename().string();
     part.triangles = parts[p].triangle_count();

@@ -18,21 +18,45 @@ namespace osteon::detail {
 /// "bones/FJ43_x.glb" -> "FJ43_x".
 std::string stem_of(const std::string& name);
 
+/// A language tag as BCP 47 spells the common ones: a primary language of 2 or 3 letters, then
+/// subtags of 1 to 8 letters or digits after hyphens ("en", "la", "pt-BR", "zh-Hant-TW").
+bool is_language_tag(const std::string& tag);
+
+/// A group of a part's path in a names file: its name, and its names in other languages.
+struct GroupName {
+  std::string name;
+  std::map<std::string, std::string> names;  ///< language tag -> name
+};
+
 /// A part's display name and group, from a names file.
 struct DisplayName {
   std::string name;
   std::string group;
   bool has_color = false;
-  Vec3 color{0, 0, 0};  ///< sRGB 0..1
+  Vec3 color{0, 0, 0};                       ///< sRGB 0..1
+  std::vector<GroupName> path;               ///< its groups, outermost first; empty: none
+  std::map<std::string, std::string> names;  ///< language tag -> the part's name in it
+  std::string system;                        ///< "Skeletal system", "Cartilage"; empty: none
+};
+
+/// A names file: the entries by key, and the languages of their names (the first is the
+/// language of the display names; empty when no entry has names in other languages).
+struct Names {
+  std::vector<std::string> languages;
+  std::map<std::string, DisplayName> parts;
 };
 
 /// Reads a names file (docs/FORMAT.md "Names file"): a JSON array of objects {filename|file|name,
-/// label|display_name, group}, a JSON object {stem: "display name"} or {stem: {display_name|label,
-/// group}}, or a CSV of stem,display_name[,group] lines (a first line starting with "file" or
-/// "stem" is a header). Keys are file stems, or label values for parts of a label volume; an
-/// optional colour (JSON "color", CSV 4th column) is "#rrggbb" or three numbers 0..1. Errors:
-/// read_file's; kInvalidData for JSON that does not parse or a CSV line of fewer than 2 fields.
-Result<std::map<std::string, DisplayName>> read_names(const std::string& path);
+/// label|display_name, group, path, names, system}, the same array as {"languages": [...],
+/// "parts": [...]}, a JSON object {stem: "display name"} or {stem: {display_name|label, group}},
+/// or a CSV of stem,display_name[,group] lines (a first line starting with "file" or "stem" is a
+/// header, whose column names may add path, system and name:<tag> columns). Keys are file stems,
+/// or label values for parts of a label volume; an optional colour (JSON "color", CSV 4th column)
+/// is "#rrggbb" or three numbers 0..1. Errors: read_file's; kInvalidData naming the file and
+/// entry for JSON that does not parse, a CSV line of fewer than 2 fields, a bad colour, a
+/// malformed or repeated language tag, a name in a language the file does not list, an empty
+/// group name or a path deeper than kMaxGroupDepth.
+Result<Names> read_names(const std::string& path);
 
 /// The triangles `indices` of `mesh` (corner indices, three a triangle), with only their vertices,
 /// in first-use order; name, source and unit kept. O(vertices + indices).

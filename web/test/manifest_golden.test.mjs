@@ -22,6 +22,27 @@ describe('golden manifests (tests/data/manifests)', () => {
     assert.ok(files.some((f) => f.startsWith('valid_')) && files.some((f) => f.startsWith('bad_')));
   });
 
+  test('valid_regions.json: languages, the region tree, part paths, names and systems', () => {
+    const m = parseManifest(JSON.parse(readFileSync(path.join(dir, 'valid_regions.json'), 'utf8')));
+    assert.deepEqual(m.languages, ['en', 'la', 'ja']);
+    assert.deepEqual(m.groups.map((g) => [g.name, g.parent, g.depth]), [
+      ['Skeleton', -1, 1], ['Lower limb', 0, 2], ['Left', 1, 3], ['Right', 1, 3], ['Vertebral column', 0, 2],
+    ]);
+    assert.deepEqual(m.groups[1].names, { la: 'Membrum inferius' });
+    assert.deepEqual(m.groups[2].names, {});
+    const femur = m.parts.find((p) => p.name === 'femur_l');
+    assert.equal(femur.path, 2);
+    assert.equal(femur.group, 'Skeleton / Lower limb / Left');
+    assert.deepEqual(femur.names, { ja: '左大腿骨', la: 'Femur sinistrum' });
+    assert.equal(femur.system, 'Skeletal system');
+    const skull = m.parts.find((p) => p.name === 'skull');
+    assert.deepEqual([skull.path, skull.names, skull.system, skull.group], [-1, {}, '', 'head']);
+    assert.deepEqual(m.groupLabels.sort(), ['Skeleton / Lower limb / Left', 'Skeleton / Lower limb / Right', 'Skeleton / Vertebral column', 'head']);
+    // A package without them: empty, not missing.
+    const plain = parseManifest(JSON.parse(readFileSync(path.join(dir, 'valid_single_part.json'), 'utf8')));
+    assert.deepEqual([plain.languages, plain.groups, plain.parts[0].path, plain.parts[0].names, plain.parts[0].system], [[], [], -1, {}, '']);
+  });
+
   for (const file of files) {
     const want = expected[file];
     test(file, { skip: want ? false : 'not in expected.json' }, () => {
@@ -42,6 +63,8 @@ describe('golden manifests (tests/data/manifests)', () => {
       assert.notEqual(message, null, `${file} was accepted; expected an error at ${want.error}`);
       assert.ok(message.startsWith('osteon: manifest.json: '), message);
       assert.ok(message.includes(`: ${want.error}: `), `expected the error to name ${want.error}, got: ${message}`);
+      // Where expected.json gives the words too, they are the C++ parser's.
+      if (want.message) assert.ok(message.includes(`: ${want.error}: ${want.message}`), `expected '${want.error}: ${want.message}', got: ${message}`);
     });
   }
 });

@@ -11,8 +11,14 @@ export interface OsteonPart {
   name: string;
   /** From the names file (`osteon pack --names`), else the name. */
   displayName: string;
-  /** From the names file, else "". */
+  /** From the names file, else ""; with a path, the path's group names joined by " / ". */
   group: string;
+  /** Index in manifest.groups of the part's deepest group; -1 when it has no path. */
+  path: number;
+  /** The part's name in other languages: tag -> name, each tag in manifest.languages. */
+  names: Record<string, string>;
+  /** "Skeletal system", "Cartilage", ...; "" when absent. */
+  system: string;
   /** The file it was read from. */
   source: string;
   /** Triangles at full resolution. */
@@ -73,7 +79,12 @@ export interface OsteonManifest {
   instancesOfPart: number[][];
   /** World box per part, known before any mesh arrives. */
   partBounds: { min: [number, number, number]; max: [number, number, number] }[];
-  groups: string[];
+  /** Language tags ("en", "la"); the first is the display names' language; [] when absent. */
+  languages: string[];
+  /** The region tree, each group after its parent; [] when absent. */
+  groups: { name: string; parent: number; names: Record<string, string>; depth: number }[];
+  /** The parts' distinct group strings. */
+  groupLabels: string[];
   bytesTotal: number;
 }
 

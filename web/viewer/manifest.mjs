@@ -13,6 +13,15 @@
 
 const kUnits = new Set(['mm', 'cm', 'm', 'in', 'unknown']);
 
+/// The most languages, groups and group levels a manifest may hold (docs/FORMAT.md, "Groups and
+/// languages"); the C++ parser's kMaxLanguages, kMaxGroups, kMaxGroupDepth.
+export const kMaxLanguages = 64;
+export const kMaxGroups = 65536;
+export const kMaxGroupDepth = 32;
+
+/// A language tag as BCP 47 spells the common ones: "en", "la", "pt-BR", "zh-Hant-TW".
+const kLanguageTag = /^[A-Za-z]{2,3}(-[A-Za-z0-9]{1,8})*$/;
+
 /// The most entries a manifest may list in each of chunks, parts, components, instances and
 /// stream_order (docs/FORMAT.md, "manifest.json", limits): 276 times BodyParts3D's 237
 /// components. Each costs the page a fetch-log entry, a list row or a draw batch, so a manifest
@@ -31,6 +40,9 @@ function isObject(v) {
 
 function number(v, where) {
   if (typeof v !== 'number' || !Number.isFinite(v)) fail(where, `expected a finite number, got ${JSON.stringify(v)}`);
+  // Every number of the manifest is a float (drawn in float, written as the nearest float): one
+  // that rounds to a float's infinity would be drawn, and written back, as infinity.
+  if (!Number.isFinite(Math.fround(v))) fail(where, `${JSON.stringify(v)} is beyond a float's range`);
   return v;
 }
 
@@ -53,7 +65,7 @@ function vec3(v, where) {
 function color(v, where) {
   const rgb = vec3(v, where);
   rgb.forEach((c, i) => {
-    if (!(c >= 0 && c <= 1)) fail(`${where}[${i}]`, `expected 0..1, got ${c}`);
+    if (!(Math.fround(c) >= 0 && Math.fround(c) <= 1)) fail(`${where}[${i}]`, `expected 0..1, got ${c}`);
   });
   return rgb;
 }
@@ -72,8 +84,69 @@ function box(v, where) {
   if (!isObject(v)) fail(where, 'expected {"min": [x, y, z], "max": [x, y, z]}');
   const min = vec3(v.min, `${where}.min`);
   const max = vec3(v.max, `${where}.max`);
-  for (let i = 0; i < 3; ++i) if (min[i] > max[i]) fail(where, `min[${i}] > max[${i}]`);
+  // Compared as drawn, in float (1.00000001 > 1 in double, equal in float).
+  for (let i = 0; i < 3; ++i) if (Math.fround(min[i]) > Math.fround(max[i])) fail(where, `min[${i}] > max[${i}]`);
   return { min, max };
+}
+
+/// The optional root "languages": unique language tags, the first the display names' language.
+/// A part's optional "path": the index of its deepest group; -1 when absent.
+function pathOf(v, where, groups) {
+  if (v === undefined) return -1;
+  const g = count(v, where);
+  if (g >= groups.length) fail(where, `no group ${g} (the package has ${groups.length})`);
+  return g;
+}
+
+function languagesOf(v) {
+  if (v === undefined) return [];
+  if (!Array.isArray(v)) fail('languages', 'expected an array of language tags');
+  if (v.length > kMaxLanguages) fail('languages', `${v.length} languages, at most ${kMaxLanguages}`);
+  const tags = [];
+  v.forEach((tag, k) => {
+    string(tag, `languages[${k}]`);
+    if (!kLanguageTag.test(tag)) fail(`languages[${k}]`, `expected a language tag ("en", "pt-BR"), got ${JSON.stringify(tag)}`);
+    if (tags.includes(tag)) fail(`languages[${k}]`, `${JSON.stringify(tag)} appears twice`);
+    tags.push(tag);
+  });
+  return tags;
+}
+
+/// An optional "names" object {tag: name} of a group or part, its tags in `languages`.
+function namesOf(v, where, languages) {
+  if (v === undefined) return {};
+  if (!isObject(v)) fail(`${where}.names`, 'expected an object {tag: name}');
+  // Sorted as the C++ parser's map holds them, so both name the same first bad tag.
+  const names = {};
+  for (const tag of Object.keys(v).sort()) {
+    if (!languages.includes(tag)) fail(`${where}.names.${tag}`, `${JSON.stringify(tag)} is not in languages`);
+    names[tag] = string(v[tag], `${where}.names.${tag}`);
+  }
+  return names;
+}
+
+/// The optional root "groups": the region tree, each { name, parent (-1 for a root), names,
+/// depth (1 for a root) }, every parent an earlier group.
+function groupsOf(v, languages) {
+  if (v === undefined) return [];
+  if (!Array.isArray(v)) fail('groups', 'expected an array');
+  if (v.length > kMaxGroups) fail('groups', `${v.length} groups, at most ${kMaxGroups}`);
+  const groups = [];
+  v.forEach((g, i) => {
+    const where = `groups[${i}]`;
+    if (!isObject(g)) fail(where, 'expected an object');
+    const name = string(g.name, `${where}.name`);
+    if (name === '') fail(`${where}.name`, 'expected a non-empty name');
+    let parent = -1;
+    if (g.parent !== undefined) {
+      parent = count(g.parent, `${where}.parent`);
+      if (parent >= i) fail(`${where}.parent`, `expected an earlier group's index (below ${i}), got ${parent}`);
+    }
+    const depth = parent < 0 ? 1 : groups[parent].depth + 1;
+    if (depth > kMaxGroupDepth) fail(`${where}.parent`, `groups nested deeper than ${kMaxGroupDepth}`);
+    groups.push({ name, parent, names: namesOf(g.names, where, languages), depth });
+  });
+  return groups;
 }
 
 /// A chunk file is named by its content hash, inside the package's c/ folder: nothing else is
@@ -159,8 +232,9 @@ function levelsOf(c, where, chunks, component) {
 ///     coarsest first with the full one last, each { level, chunk, offset, bytes, file,
 ///     triangles, vertices, error }; `first`, levels[0]), componentById: Map, instances, streamOrder
 ///     (component objects in fetch order), instancesOf: Map component id -> instance indices,
-///     instancesOfPart: instance indices per part, partBounds: world box per part, groups,
-///     bytesTotal (the chunks' bytes), refused (a message per instance not drawn: a matrix with
+///     instancesOfPart: instance indices per part, partBounds: world box per part, languages
+///     (tags, [] when absent), groups (the region tree: { name, parent (-1 for a root), names,
+///     depth }, [] when absent), groupLabels (the parts' distinct group strings), bytesTotal (the chunks' bytes), refused (a message per instance not drawn: a matrix with
 ///     Infinity) }
 /// Each instance gains `mirror` recomputed from its matrix's determinant (what decides the
 /// winding on screen), `index` (in the instances drawn) and `source` (in the manifest's list). Throws Error('osteon: manifest.json: <field>: <what>').
@@ -176,6 +250,9 @@ export function parseManifest(json) {
     if (!Array.isArray(json[key])) fail(key, 'expected an array');
     if (json[key].length > kMaxEntries) fail(key, `${json[key].length} entries, this viewer reads at most ${kMaxEntries}`);
   }
+
+  const languages = languagesOf(json.languages);
+  const groupTree = groupsOf(json.groups, languages);
 
   const chunkFiles = new Set();
   const chunks = json.chunks.map((c, k) => {
@@ -201,6 +278,9 @@ export function parseManifest(json) {
       triangles: count(p.triangles, `${where}.triangles`),
       prototype: count(p.prototype, `${where}.prototype`),
       color: p.color === undefined ? null : color(p.color, `${where}.color`),
+      path: pathOf(p.path, `${where}.path`, groupTree),
+      names: namesOf(p.names, where, languages),
+      system: p.system === undefined ? '' : string(p.system, `${where}.system`),
     };
   });
   for (const p of parts) {
@@ -259,7 +339,9 @@ export function parseManifest(json) {
     }
     const matrix = inst.matrix.map((v, k) => number(v, `${where}.matrix[${k}]`));
     const det = determinant3(matrix);
-    if (!(Math.abs(det) > 0)) fail(`${where}.matrix`, 'singular (determinant 0)');
+    // Singular in float is singular as drawn (and as written back: entries below a float's
+    // smallest step are written as 0).
+    if (!(Math.abs(det) > 0) || !(Math.abs(determinant3(matrix.map(Math.fround))) > 0)) fail(`${where}.matrix`, 'singular (determinant 0)');
     const instance = {
       index: i,
       source: i,
@@ -293,7 +375,8 @@ export function parseManifest(json) {
 
   // A part without instances (none should exist) still gets a box, so framing it does not fail.
   for (let i = 0; i < parts.length; ++i) partBounds[i] ??= bounds;
-  const groups = [...new Set(parts.map((p) => p.group))];
+  // The distinct group strings of the parts (what viewers before the region tree toggled).
+  const groupLabels = [...new Set(parts.map((p) => p.group))];
   const used = new Set(components.flatMap((c) => c.levels.map((level) => level.chunk)));
   return {
     unit,
@@ -308,7 +391,9 @@ export function parseManifest(json) {
     instancesOf,
     instancesOfPart,
     partBounds,
-    groups,
+    languages,
+    groups: groupTree,
+    groupLabels,
     refused,
     bytesTotal: chunks.reduce((sum, c) => sum + (used.has(c.index) ? c.bytes : 0), 0),
   };

@@ -296,7 +296,7 @@ export function buildListsSoon(state) {
 export function buildGroups(state) {
   const { manifest, groupOn } = state;
   const groups = $(state, 'group-list');
-  for (const group of [...manifest.groups].sort()) {
+  for (const group of [...manifest.groupLabels].sort()) {
     groupOn.set(group, true);
     const label = document.createElement('label');
     const box = document.createElement('input');

@@ -91,6 +91,47 @@ bad_levels = {
     "bad_level_triangles_of_full.json": ("components[0].levels[0].triangles", lambda m: m["components"][0]["levels"][0].update(triangles=m["components"][0]["triangles"] + 1)),
 }
 
+# Groups and languages: valid_regions.json (languages en, la, ja; five groups, Skeleton >
+# Lower limb > Left / Right and Skeleton > Vertebral column; parts 0 and 1 with names) with one
+# of them broken.
+regions_base = load("valid_regions.json")
+assert regions_base["languages"] == ["en", "la", "ja"] and len(regions_base["groups"]) == 5
+bad_regions = {
+    "bad_languages_not_array.json": ("languages", lambda m: m.update(languages="en")),
+    "bad_languages_tag.json": ("languages[1]", lambda m: m["languages"].__setitem__(1, "latin language")),
+    "bad_languages_duplicate.json": ("languages[2]", lambda m: m["languages"].__setitem__(2, "en")),
+    "bad_languages_too_many.json": ("languages", lambda m: m.update(languages=["en"] + ["x%02d" % k for k in range(64)])),
+    "bad_groups_not_array.json": ("groups", lambda m: m.update(groups={})),
+    "bad_group_not_object.json": ("groups[2]", lambda m: m["groups"].__setitem__(2, "Left")),
+    "bad_group_name_empty.json": ("groups[1].name", lambda m: m["groups"][1].update(name="")),
+    # A parent must come earlier: itself, or a later group, would allow a cycle.
+    "bad_group_parent_self.json": ("groups[2].parent", lambda m: m["groups"][2].update(parent=2)),
+    "bad_group_parent_later.json": ("groups[1].parent", lambda m: m["groups"][1].update(parent=4)),
+    "bad_group_parent_negative.json": ("groups[1].parent", lambda m: m["groups"][1].update(parent=-1)),
+    "bad_group_too_deep.json": ("groups[32].parent", lambda m: m.update(groups=[{"name": "Skeleton"}] + [{"name": "g%d" % k, "parent": k} for k in range(32)])),
+    "bad_group_names_language.json": ("groups[1].names.de", lambda m: m["groups"][1]["names"].update(de="Untere Extremitaet")),
+    "bad_group_names_number.json": ("groups[0].names.la", lambda m: m["groups"][0]["names"].update(la=7)),
+    "bad_part_path_out_of_range.json": ("parts[3].path", lambda m: m["parts"][3].update(path=5)),
+    "bad_part_path_string.json": ("parts[1].path", lambda m: m["parts"][1].update(path="2")),
+    "bad_part_names_not_object.json": ("parts[0].names", lambda m: m["parts"][0].update(names=["Femur sinistrum"])),
+    "bad_part_names_language.json": ("parts[1].names.fr", lambda m: m["parts"][1]["names"].update(fr="Femur droit")),
+    "bad_part_system_number.json": ("parts[4].system", lambda m: m["parts"][4].update(system=1)),
+}
+
+# Numbers beyond what the package's floats hold: valid_named_subset.json with one number that
+# rounds to a float's infinity, or a matrix singular only once rounded to float (its entries
+# below a float's smallest step). Both parsers name the field and say the same words (the
+# "message" in expected.json).
+beyond = "is beyond a float's range"
+bad_numbers = {
+    "bad_bounds_beyond_float.json": ("bounds.max[2]", "1e+39 " + beyond, lambda m: m["bounds"]["max"].__setitem__(2, 1e39)),
+    "bad_component_bounds_beyond_float.json": ("components[0].bounds.min[0]", "-1e+39 " + beyond, lambda m: m["components"][0]["bounds"]["min"].__setitem__(0, -1e39)),
+    "bad_component_error_bound_beyond_float.json": ("components[3].error_bound", "1e+39 " + beyond, lambda m: m["components"][3].update(error_bound=1e39)),
+    "bad_instance_matrix_beyond_float.json": ("instances[2].matrix[13]", "-1e+39 " + beyond, lambda m: m["instances"][2]["matrix"].__setitem__(13, -1e39)),
+    "bad_instance_error_bound_beyond_float.json": ("instances[1].error_bound", "3.5e+38 " + beyond, lambda m: m["instances"][1].update(error_bound=3.5e38)),
+    "bad_instance_matrix_singular_in_float.json": ("instances[4].matrix", "singular (determinant 0)", lambda m: m["instances"][4].update(matrix=[1e-50, 0, 0, 0, 0, 1e-50, 0, 0, 0, 0, 1e-50, 0, 0, 0, 0, 1])),
+}
+
 expected = {}
 for name in sorted(f for f in os.listdir(here) if f.startswith("valid_") and f.endswith(".json")):
     m = load(name)
@@ -105,6 +146,16 @@ for name, (path, edit) in bad_levels.items():
     edit(m)
     dump(name, m)
     expected[name] = {"error": path}
+for name, (path, edit) in bad_regions.items():
+    m = json.loads(json.dumps(regions_base))
+    edit(m)
+    dump(name, m)
+    expected[name] = {"error": path}
+for name, (path, message, edit) in bad_numbers.items():
+    m = json.loads(json.dumps(base))
+    edit(m)
+    dump(name, m)
+    expected[name] = {"error": path, "message": message}
 with open(os.path.join(here, "expected.json"), "w", encoding="utf-8") as f:
     json.dump(dict(sorted(expected.items())), f, indent=2)
     f.write("\n")
