@@ -57,10 +57,11 @@ export function pack(inputs, out, extra = []) {
   return JSON.parse(readFileSync(path.join(out, 'manifest.json'), 'utf8'));
 }
 
-/// Starts `osteon serve root --port 0` and resolves to { url, requests, close } once it prints
-/// its address. `requests` collects the request lines it logs (one per request, on stderr).
-export function serve(root) {
-  const child = spawn(cli, ['serve', root, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
+/// Starts `osteon serve root --port 0` (or `port`: the same origin again after a close) and
+/// resolves to { url, requests, close } once it prints its address. `requests` collects the
+/// request lines it logs (one per request, on stderr).
+export function serve(root, port = 0) {
+  const child = spawn(cli, ['serve', root, '--port', String(port)], { stdio: ['ignore', 'pipe', 'pipe'] });
   const requests = [];
   let stderrTail = '';
   child.stderr.setEncoding('utf8');

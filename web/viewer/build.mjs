@@ -20,6 +20,11 @@
 //                                    (render_three.mjs)
 //   decoder-worker-<h>.js            the decoder worker (web/decoder/worker.mjs and the wrapper)
 //   osteon_decoder.wasm              the WebAssembly decoder (build/wasm, from npm run build:decoder)
+//   sw.js                            the service worker (service_worker.js) that keeps the package
+//                                    for use offline, under a name that does not change (a
+//                                    worker's URL is its identity); it carries the SHA-256 of every
+//                                    other file above, which it fetches and checks at install, so
+//                                    it changes whenever the viewer does
 //   *.gz                             gzip -9 copies of every file, which `osteon serve` sends to
 //                                    clients that accept gzip
 // <h> is the first 24 hex digits of the SHA-256 of the file's bytes (as the package's component
@@ -146,6 +151,15 @@ for (const [marker, text] of [['%VIEWER_JS%', script], ['%VIEWER_CSS%', style], 
 }
 files.set('index.html', Buffer.from(html));
 
+// The service worker, with the list of the files it keeps at install (name -> the first 24 hex
+// digits of its SHA-256) and a name for that list (the caches of another build are removed).
+const precache = Object.fromEntries([...files].map(([name, bytes]) => [name, createHash('sha256').update(bytes).digest('hex').slice(0, 24)]));
+const build = createHash('sha256').update(JSON.stringify(precache)).digest('hex').slice(0, 24);
+files.set('sw.js', await bundle('service_worker.js', {
+  format: 'iife',
+  define: { OSTEON_PRECACHE: JSON.stringify({ build, files: precache }) },
+}));
+
 // A package's own names (docs/FORMAT.md): the viewer must not shadow them.
 for (const name of files.keys()) {
   if (name === 'manifest.json' || name.startsWith('c/')) fail(`the viewer may not write ${name}`);
@@ -162,8 +176,9 @@ for (const [name, bytes] of files) {
   const gz = gzipSync(bytes, { level: 9 });
   writeFileSync(join(out, `${name}.gz`), gz);
   // The standalone page's download: the render worker's file is fetched only where blob: workers
-  // are refused (it is in the page), the stable-named entry only by other pages.
-  if (name !== renderWorker && name !== 'osteon-viewer.mjs') {
+  // are refused (it is in the page), the stable-named entry only by other pages, the service
+  // worker once the skeleton has loaded.
+  if (name !== renderWorker && name !== 'osteon-viewer.mjs' && name !== 'sw.js') {
     total += bytes.length;
     totalGz += gz.length;
   }
@@ -173,4 +188,4 @@ const width = Math.max(...rows.map((r) => r[0].length));
 for (const [name, size, gz] of rows) {
   console.log(`osteon: ${out}/${name.padEnd(width)} ${String(size).padStart(8)} bytes, gzip -9 ${String(gz).padStart(7)}`);
 }
-console.log(`osteon: viewer download (every file but ${renderWorker}, inlined in the page, and osteon-viewer.mjs; gzip -9): ${totalGz} bytes (${total} uncompressed)`);
+console.log(`osteon: viewer download (every file but ${renderWorker}, inlined in the page, osteon-viewer.mjs and sw.js; gzip -9): ${totalGz} bytes (${total} uncompressed)`);

@@ -41,7 +41,8 @@ export interface OsteonViewerEventMap extends HTMLElementEventMap {
 /**
  * `<osteon-viewer src="package/">`. Attributes: src, camera ("px,py,pz,tx,ty,tz[,ux,uy,uz[,fov]]"
  * or share text), view (share text), background ("#rrggbb"), panel ("on" | "off"), budget-mb,
- * budget-triangles, render ("page"), sync-hash.
+ * budget-triangles, render ("page"), sync-hash, offline (registers the service worker beside the
+ * element's script once the skeleton has loaded, for use without a network).
  */
 export class OsteonViewer extends HTMLElement {
   static observedAttributes: string[];

@@ -23,6 +23,9 @@
 //   budget-triangles  their triangle budget (default 4,000,000)
 //   render            "page" keeps the renderer on the page's main thread
 //   sync-hash         keep the view in the page's URL hash (the standalone page does)
+//   offline           keep the package for use offline: registers the service worker beside this
+//                     script (sw.js; its scope is that folder) once the skeleton has loaded
+//                     (offline.mjs; the standalone page does)
 // Events (CustomEvent, on the element): 'progress' and 'load' (detail: the counts), 'error'
 // (nothing can be drawn: the manifest, WebGL or the decoder failed; detail.message), 'select' (detail: name, partName, part, group, source,
 // triangles; name null when the selection is cleared), 'viewchange' (detail.view: the share text).
@@ -35,6 +38,7 @@
 
 import { manifestUrlOf, startBoot } from './boot.js';
 import { createViewer } from './main.mjs';
+import { keepOffline } from './offline.mjs';
 import { parseCamera, parseViewState } from './share.mjs';
 import { budgetOf } from './state.mjs';
 
@@ -180,6 +184,9 @@ export class OsteonViewer extends HTMLElement {
       syncHash,
     });
     this.#applyPanel();
+    if (this.hasAttribute('offline')) {
+      keepOffline(this, { worker: new URL('./sw.js', import.meta.url).href, manifestUrl, manifest: boot.manifest });
+    }
     const camera = this.getAttribute('camera');
     if (camera) this.#viewer.setCamera(cameraPending(camera));
     // The view attribute, unless the page's hash holds one (a shared link wins over the page's
