@@ -32,7 +32,10 @@
 // Where a canvas cannot be handed to a worker (no OffscreenCanvas; or render="page"), the
 // renderer runs on the page's main thread instead: main.mjs starts it on `rendererPort`.
 //
-// No dependencies: this must run before anything else has downloaded.
+// No dependencies but stream.mjs's stall deadline (bundled in): this must run before anything
+// else has downloaded.
+import { fetchWithin, kStallMs, readWithin, within } from './stream.mjs';
+
 /// The manifest's URL for an element's `src`: a package folder ("pkg/", "pkg") or a manifest's own
 /// URL (ending in .json), relative to `base`.
 export function manifestUrlOf(src, base) {
@@ -49,8 +52,8 @@ export function manifestUrlOf(src, base) {
 export const kMaxManifestBytes = 16 << 20;
 
 /// The manifest's text, read no further than kMaxManifestBytes (refused by its Content-Length
-/// before the body is read, when the host sends one).
-async function readManifestText(response, name) {
+/// before the body is read, when the host sends one), each piece within `stallMs` of the last.
+async function readManifestText(response, name, stallMs) {
   const tooLarge = (bytes) => new Error(`osteon: ${name}: ${bytes} bytes, this viewer reads at most ${kMaxManifestBytes}`);
   const declared = Number(response.headers.get('Content-Length'));
   // Content-Length counts the bytes on the wire: a compressed body may hold more.
@@ -58,12 +61,12 @@ async function readManifestText(response, name) {
     response.body && response.body.cancel().catch(() => {});
     throw tooLarge(declared);
   }
-  if (!response.body || !response.body.getReader) return response.text();
+  if (!response.body || !response.body.getReader) return within(response.text(), stallMs);
   const reader = response.body.getReader();
   const pieces = [];
   let size = 0;
   for (;;) {
-    const { done, value } = await reader.read();
+    const { done, value } = await readWithin(reader, stallMs);
     if (done) break;
     size += value.length;
     if (size > kMaxManifestBytes) {
@@ -79,8 +82,10 @@ async function readManifestText(response, name) {
 /// viewer's canvas element; `manifestUrl`: absolute; `files`: the absolute URLs of the viewer's
 /// files { renderWorker, renderThree, decoderWorker, wasm } and, optionally, `renderWorkerCode`
 /// (the render worker's script, started from a blob: URL without a round trip); `renderOnPage`:
-/// keep the renderer on the page's main thread; `background`: the view's colour, '#rrggbb'.
-export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPage = false, background }) {
+/// keep the renderer on the page's main thread; `background`: the view's colour, '#rrggbb';
+/// `stallMs`: how long any of the viewer's requests may send no byte before it fails (default
+/// kStallMs; the manifest's: 'osteon: manifest.json: no byte for 15 s', and nothing is drawn).
+export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPage = false, background, stallMs = kStallMs }) {
   const manifestUrl = new URL(manifestHref);
   const manifestName = manifestUrl.pathname.split('/').pop() || manifestUrl.href;
   const boot = {
@@ -92,22 +97,28 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
     rendererError: null,
     decoders: [],
     decoderError: null,
+    stallMs,  // the stream and the levels (streaming.mjs) wait as long
     timings: {},  // when the manifest's answer, its text and three.js's text arrived here (window.osteon.timings)
   };
   const text = (e) => String((e && e.message) || e);
   // The renderer's messages: kept until main.mjs sets boot.deliver, then handed to it.
   const deliver = (message) => (boot.deliver ? boot.deliver(message) : boot.messages.push(message));
 
-  boot.manifest = fetch(manifestUrl, { priority: 'high' }).then(
+  boot.manifest = fetchWithin(fetch, manifestUrl, { priority: 'high' }, stallMs).then(
     async (response) => {
       boot.timings.manifestResponse = performance.now();
       if (!response.ok) throw new Error(`osteon: ${manifestName}: HTTP ${response.status}`);
-      const manifestText = await readManifestText(response, manifestName);
+      let manifestText;
+      try {
+        manifestText = await readManifestText(response, manifestName, stallMs);
+      } catch (e) {
+        throw e && e.stalled ? new Error(`osteon: ${manifestName}: ${e.message}`) : e;
+      }
       boot.timings.manifest = performance.now();
       return manifestText;
     },
     (e) => {
-      throw new Error(`osteon: ${manifestName}: fetch failed: ${text(e)}`);
+      throw new Error(`osteon: ${manifestName}: ${e && e.stalled ? e.message : `fetch failed: ${text(e)}`}`);
     },
   );
   boot.manifest.catch(() => {});  // main.mjs reports it
@@ -248,7 +259,8 @@ function moduleWorker(url) {
 
 /// The standalone page's bootstrap (index.html, inline, after its <osteon-viewer>): the page's URL
 /// parameters become the element's attributes (?manifest=URL its src, ?budgetMB= and
-/// ?budgetTriangles= its budget, ?render=page), the boot is started for the element and left on
+/// ?budgetTriangles= its budget, ?render=page; ?stallMs=, how long a request may send nothing,
+/// goes to the boot: tests of stalling hosts set it short), the boot is started for the element and left on
 /// it for its script to pick up, and window.osteon shows the element's report.
 /* global OSTEON_RENDER_WORKER_CODE, OSTEON_RENDER_WORKER_FILE, OSTEON_RENDER_THREE_FILE, OSTEON_DECODER_WORKER_FILE */
 export function bootPage() {
@@ -280,6 +292,7 @@ export function bootPage() {
     },
     renderOnPage: element.getAttribute('render') === 'page',
     background: element.getAttribute('background') || undefined,
+    stallMs: Number(params.get('stallMs')) > 0 ? Number(params.get('stallMs')) : undefined,
   });
   boot.page = true;
   element[Symbol.for('osteon.boot')] = boot;

@@ -13,6 +13,9 @@
 //
 // Failures stay small: a level whose fetch or decode fails is reported (naming its chunk file,
 // component, level and byte range), never asked for again, and the level drawn before it stays.
+// A fetch that stalls (no byte for `stallMs`, stream.mjs kStallMs, while waiting for the answer
+// or within its body) is aborted and fails that level alone, with no retry: its slot goes to the
+// next level the view needs, so the queue never waits on one host forever.
 //
 // No DOM and no three.js: Node tests run it with fake fetch, decode and renderer.
 
@@ -31,6 +34,7 @@ const kCacheBytes = 8 << 20;   // whole chunks kept where a host ignores Range
 ///   onError(message)  onChange()  (the report changed)  now()  signal  budget  base (the
 ///   manifest's URL, for the chunks' URLs)  report (an object to write the report's fields into)
 ///   inFlight (default 3)  cacheBytes (whole chunks kept where a host ignores Range; 8 MiB)
+///   stallMs (default kStallMs: a level fetch with no byte for this long fails)
 /// Returns { report, hasLevels, firstSent, firstDrawn, firstFailed, start, setView, shown,
 /// failedInRenderer, setBudget, setMaxPixelError, levelPixels, plan }; `report` holds the fields
 /// window.osteon shows (see state.mjs).
@@ -197,7 +201,7 @@ export function createLevelLoader(manifest, options) {
       let got;
       try {
         got = await fetchRange({ url: options.base === undefined ? chunk.file : new URL(chunk.file, options.base).href, file: chunk.file, bytes: chunk.bytes },
-          l.offset, l.bytes, { fetch: fetchFn, cache, signal });
+          l.offset, l.bytes, { fetch: fetchFn, cache, signal, stallMs: options.stallMs });
       } finally {
         log.fetchEnd = now();
       }

@@ -21,9 +21,11 @@
 // 'finest' fetches the full level of every component and nothing else.
 //
 // Failures: any stream that cannot be fetched or decoded, a manifest that is missing, not JSON
-// or refused by the checks, a decoder or worker that cannot be loaded, and no progress for
-// `timeout` ms end the load with an Error('osteon: <file>: <field or byte range>: <what>'); its
-// fetches are aborted, and the decoder workers are terminated once no other load uses them.
+// or refused by the checks, a decoder or worker that cannot be loaded, a request (the manifest's,
+// a chunk's or a level's byte range) that sends no byte for 15 s (stream.mjs kStallMs, as in the
+// viewer), and no progress for `timeout` ms end the load with an Error('osteon: <file>: <field or
+// byte range>: <what>'); its fetches are aborted, and the decoder workers are terminated once no
+// other load uses them. What was added to the group before stays.
 //
 // Based on: three.js DRACOLoader (decoder path, worker limit, dispose) and TextureLoader
 // (load() returns the object at once; it is filled in as data arrives).
@@ -34,7 +36,7 @@ import { compileDecoder } from '../decoder/osteon_decoder.mjs';
 import { createDecoderPool } from '../decoder/pool.mjs';
 import { findPart, parseManifest } from './manifest.mjs';
 import { createPackageScene } from './scene.mjs';
-import { createChunkStream, planSpans } from './stream.mjs';
+import { createChunkStream, kStallMs, planSpans, readWithin, within } from './stream.mjs';
 
 const kLevels = new Set(['progressive', 'coarsest', 'finest']);
 const kDefaultTimeout = 30000;          // ms without a byte or a decode: the load fails
@@ -371,9 +373,10 @@ export class OsteonLoader extends Loader {
     try {
       let response;
       try {
-        response = await this._fetch(load, url);
+        // A stall fails the load, whose end aborts the request.
+        response = await within(this._fetch(load, url), kStallMs);
       } catch (e) {
-        throw new Error(`osteon: ${url}: fetch failed: ${e?.message ?? e}`);
+        throw new Error(`osteon: ${url}: ${e?.stalled ? e.message : `fetch failed: ${e?.message ?? e}`}`);
       }
       if (!response.ok) throw new Error(`osteon: ${url}: HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
       const pieces = [];
@@ -382,7 +385,7 @@ export class OsteonLoader extends Loader {
       for (;;) {
         let piece;
         try {
-          piece = await reader.read();
+          piece = await readWithin(reader, kStallMs);
         } catch (e) {
           throw new Error(`osteon: ${url}: the download broke off after ${size} bytes: ${e?.message ?? e}`);
         }

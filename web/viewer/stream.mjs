@@ -13,7 +13,7 @@
 // between one chunk's end and the next one's first byte without splitting the bandwidth further.
 //
 // Failures stay as small as the data allows: a chunk that cannot be fetched, that ends early, or
-// whose body stalls (kStallMs without a byte), fails only the components whose bytes had not all
+// whose answer or body stalls (kStallMs without a byte), fails only the components whose bytes had not all
 // arrived (each one reported, naming the chunk file); one that sends more than the manifest says
 // is read no further than that, and reported; a stream the decoder rejects fails its component
 // alone. The rest goes on.
@@ -74,24 +74,75 @@ function rangeLabel(file, range) {
 ///                                                 ranges were all delivered; they decode or not)
 ///   limit (default 2), now (default performance.now), signal (an AbortSignal: once aborted, no
 ///   further chunk is started; pass it to fetch() too, to cut the ones in flight),
-///   stallMs (default kStallMs): a body that sends nothing for this long is given up, failing
-///   the chunk's remaining ranges, and the lane goes on to the next chunk
+///   stallMs (default kStallMs): a request whose answer (its headers) or next piece of body
+///   takes longer than this is given up, failing the chunk's remaining ranges ('...: no byte for
+///   15 s'), and the lane goes on to the next chunk
 /// run() resolves when every range is decoded or has failed; it never rejects for one failure.
 /// How long a chunk's body may send nothing before it is given up: a server that stalls
 /// mid-body would otherwise hold one of the two lanes, and the components behind it, forever.
 export const kStallMs = 15000;
 
-/// reader.read(), or a rejection once `ms` pass without an answer (the reader is then cancelled).
-function readWithin(reader, ms) {
+/// `promise`, or a rejection with Error('no byte for <ms / 1000> s') (its `stalled` set) once `ms`
+/// pass without it settling; `onStall()` then gives up what it waits for (aborts the request,
+/// cancels the reader). Every fetch of the viewer waits through this: for the answer's headers
+/// (fetchWithin) and for each piece of its body (readWithin).
+export function within(promise, ms, onStall = () => {}) {
   let timer;
   const stalled = new Promise((resolve, reject) => {
     timer = setTimeout(() => {
-      // Rejected first: cancelling ends the pending read, which must not win the race.
-      reject(new Error(`no byte for ${ms / 1000} s`));
-      reader.cancel().catch(() => {});
+      // Rejected first: giving up ends the pending wait, which must not win the race.
+      const error = new Error(`no byte for ${ms / 1000} s`);
+      error.stalled = true;
+      reject(error);
+      onStall();
     }, ms);
   });
-  return Promise.race([reader.read(), stalled]).finally(() => clearTimeout(timer));
+  return Promise.race([promise, stalled]).finally(() => clearTimeout(timer));
+}
+
+/// reader.read(), or a rejection once `ms` pass without an answer (the reader is then cancelled).
+export function readWithin(reader, ms) {
+  return within(reader.read(), ms, () => reader.cancel().catch(() => {}));
+}
+
+/// fetchFn(url, init), or a rejection once `ms` pass without the answer's headers (the request
+/// is then aborted; `init.signal` still aborts it too). The body's pieces: readWithin.
+export function fetchWithin(fetchFn, url, init, ms) {
+  const controller = new AbortController();
+  const outer = init?.signal;
+  if (outer?.aborted) controller.abort(outer.reason);
+  else outer?.addEventListener('abort', () => controller.abort(outer.reason), { once: true });
+  return within(fetchFn(url, { ...init, signal: controller.signal }), ms, () => controller.abort());
+}
+
+/// A response's body, each piece within `ms` of the last (readWithin), read no further than past
+/// `limit` bytes (a longer one is cancelled there). Returns { body (a Uint8Array), cut (true when
+/// it was longer than `limit`) }.
+async function readBodyWithin(response, ms, limit) {
+  const reader = response.body?.getReader?.();
+  // No streams (a test's fake response): the whole body at once, within `ms` still.
+  if (!reader) return { body: new Uint8Array(await within(response.arrayBuffer(), ms)), cut: false };
+  const pieces = [];
+  let size = 0;
+  let cut = false;
+  for (;;) {
+    const { done, value } = await readWithin(reader, ms);
+    if (done) break;
+    pieces.push(value);
+    size += value.length;
+    if (size > limit) {
+      reader.cancel().catch(() => {});
+      cut = true;
+      break;
+    }
+  }
+  const body = new Uint8Array(size);
+  let at = 0;
+  for (const piece of pieces) {
+    body.set(piece, at);
+    at += piece.length;
+  }
+  return { body, cut };
 }
 
 export function createChunkStream(plan, options) {
@@ -132,10 +183,13 @@ export function createChunkStream(plan, options) {
       for (; next < chunk.ranges.length; ++next) fail(chunk.ranges[next], what);
     };
     let response;
+    const answer = Promise.resolve().then(() => fetchChunk(chunk));
     try {
-      response = await fetchChunk(chunk);
+      response = await within(answer, stallMs);
     } catch (e) {
-      return failRest(`fetch failed: ${e?.message ?? e}`);
+      // An answer that comes after all is not read.
+      if (e?.stalled) answer.then((late) => late.body?.cancel?.().catch(() => {}), () => {});
+      return failRest(e?.stalled ? e.message : `fetch failed: ${e?.message ?? e}`);
     }
     if (!response.ok) return failRest(`HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
 
@@ -230,9 +284,11 @@ export function createChunkCache(maxBytes) {
 /// size per the manifest). Resolves to { data (a Uint8Array that owns its buffer,
 /// transferable), status: 206, 200 or 'cache', received (bytes that came over the network),
 /// requests (how many were made) };
-/// throws Error('HTTP 404 ...' / 'fetch failed: ...' / what was wrong with the answer) for the
-/// caller to name the range.
-export async function fetchRange(chunk, offset, bytes, { fetch, cache, signal } = {}) {
+/// throws Error('HTTP 404 ...' / 'fetch failed: ...' / 'no byte for 15 s' / what was wrong with
+/// the answer) for the caller to name the range. Each request's headers, and each piece of its
+/// body, must come within `stallMs` (default kStallMs; fetchWithin, readWithin): a stalled
+/// request is aborted and the range fails, not tried again.
+export async function fetchRange(chunk, offset, bytes, { fetch, cache, signal, stallMs = kStallMs } = {}) {
   const cached = cache?.get(chunk.file);
   if (cached) return { data: cached.slice(offset, offset + bytes), status: 'cache', received: 0, requests: 0 };
   const data = new Uint8Array(bytes);
@@ -246,23 +302,38 @@ export async function fetchRange(chunk, offset, bytes, { fetch, cache, signal } 
     try {
       const init = { headers: { Range: `bytes=${from}-${to}` }, signal };
       if (attempt > 0) init.cache = 'no-store';
-      response = await fetch(chunk.url, init);
+      response = await fetchWithin(fetch, chunk.url, init, stallMs);
     } catch (e) {
-      throw new Error(`fetch failed: ${e?.message ?? e}`);
+      throw e?.stalled ? e : new Error(`fetch failed: ${e?.message ?? e}`);
     }
-    if (!response.ok) throw new Error(`HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
-    const body = new Uint8Array(await response.arrayBuffer());
+    if (!response.ok) {
+      response.body?.cancel?.().catch(() => {});
+      throw new Error(`HTTP ${response.status}${response.statusText ? ` ${response.statusText}` : ''}`);
+    }
+    if (response.status === 206) {
+      const range = /^bytes (\d+)-(\d+)\//.exec(response.headers?.get?.('Content-Range') ?? '');
+      // What matters is where the answer starts; how far it goes is what arrived (a body cut short
+      // under a header that promised more is continued like a shorter range).
+      if (range && (Number(range[1]) !== from || Number(range[2]) > to)) {
+        response.body?.cancel?.().catch(() => {});
+        throw new Error(`the host sent ${range[0].slice(0, -1)}, not bytes ${from}-${to}`);
+      }
+    }
+    // A whole file (200) may be as long as the chunk, a range (206) as long as what is missing.
+    const limit = response.status === 206 ? bytes - have : chunk.bytes;
+    let body;
+    let cut;
+    try {
+      ({ body, cut } = await readBodyWithin(response, stallMs, limit));
+    } catch (e) {
+      throw e?.stalled ? e : new Error(`the download broke off: ${e?.message ?? e}`);
+    }
     received += body.length;
+    if (cut) throw new Error(response.status === 206 ? `more than ${limit} bytes in the answer, the range has ${limit}` : `more than ${limit} bytes, the manifest says ${limit}`);
     if (response.status !== 206) {
       if (body.length !== chunk.bytes) throw new Error(`${body.length} bytes, the manifest says ${chunk.bytes}`);
       cache?.put(chunk.file, body);
       return { data: body.slice(offset, offset + bytes), status: 200, received, requests: attempt + 1 };
-    }
-    const range = /^bytes (\d+)-(\d+)\//.exec(response.headers?.get?.('Content-Range') ?? '');
-    // What matters is where the answer starts; how far it goes is what arrived (a body cut short
-    // under a header that promised more is continued like a shorter range).
-    if (range && (Number(range[1]) !== from || Number(range[2]) > to)) {
-      throw new Error(`the host sent ${range[0].slice(0, -1)}, not bytes ${from}-${to}`);
     }
     if (body.length > bytes - have) throw new Error(`${body.length} bytes in the answer, the range has ${bytes - have}`);
     data.set(body, have);

@@ -47,6 +47,7 @@ export function startLog(state) {
     budget: state.initialBudget,
     fetch: (url, init) => fetch(url, init),
     signal: state.stopStream.signal,
+    stallMs: state.boot.stallMs,
     // The pool the first streams were decoded by; it stays for the levels.
     decode: async (buffer, label) => {
       const pool = await state.pool;
@@ -190,6 +191,7 @@ export async function startStream(state) {
   await boot.chunksStarted;
   const stream = createChunkStream(planChunks(state.manifest, boot.manifestUrl), {
     limit: kChunksInFlight,
+    stallMs: boot.stallMs,
     // The first chunks are already on their way (boot.js).
     fetchChunk: (chunk) => boot.chunks.get(chunk.index) ?? fetch(chunk.url, { signal: stopStream.signal }),
     signal: stopStream.signal,
