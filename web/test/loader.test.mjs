@@ -140,7 +140,7 @@ describe('OsteonLoader from the npm tarball in Chromium', { skip: skip ?? false 
     assert.equal(installed.name, 'osteon');
     const dist = path.join(site, 'node_modules', 'osteon', 'dist');
     const files = readdirSync(dist).sort();
-    assert.deepEqual(files.filter((f) => !/^(element-|render-|osteon-viewer\.|decoder-worker-)/.test(f)),
+    assert.deepEqual(files.filter((f) => !/^(element-|render-|osteon-viewer\.|decoder-worker-|sw\.js$)/.test(f)),
       ['decoder-worker.js', 'loader.d.ts', 'loader.js', 'osteon_decoder.wasm']);
     // osteon/element: its entry, and every file its bundle starts, beside it.
     assert.equal(installed.exports['./element'].import, './dist/osteon-viewer.mjs');
