@@ -20,15 +20,18 @@ echo "== building the WebAssembly decoder and the viewer"
 
 site=build/demo-site
 data=../shared/data/aHer-dev__3DAnatomy
+ontology=../shared/data/BodyParts3D-FMA
 rm -rf "$site"
 if [ -d "$data/models/bones" ]; then
-  echo "== packing the BodyParts3D skeleton (235 bones, names from meta.json)"
-  "$osteon" pack "$data/models/bones" --names "$data/meta.json" --precision 0.0289 \
+  echo "== packing the BodyParts3D skeleton (235 bones, names from meta.json, regions from its FMA ontology)"
+  regions=()
+  [ -f "$ontology/conventional_part_of.txt" ] && regions=(--regions "fma:$ontology")
+  "$osteon" pack "$data/models/bones" --names "$data/meta.json" "${regions[@]}" --precision 0.0289 \
     --viewer build/viewer -o "$site"
 else
   echo "osteon: ../shared/data is absent: packing a generated phantom skeleton instead"
   "$osteon" phantom -o build/phantom
-  "$osteon" pack build/phantom --viewer build/viewer -o "$site"
+  "$osteon" pack build/phantom --regions names --viewer build/viewer -o "$site"
 fi
 
 echo "== serving $site (Ctrl-C stops)"

@@ -367,6 +367,13 @@ TEST(Pack, GroupsAndLanguagesFromTheNamesFile) {
       {R"([{"file": "skull", "path": ["Skeleton", ""]}])", "skull: path[1]: an empty group name"},
       {R"([{"file": "skull", "path": 7}])", "skull: path: expected an array of group names"},
       {R"([{"file": "skull", "names": {"la": 7}}])", "skull: names.la: expected a string"},
+      {R"([{"file": "skull", "path": []}])", "skull: path: empty"},
+      {R"([{"file": "skull", "path": "Skeleton / Head / Skeleton"}])",
+       "skull: path[2]: \"Skeleton\" is inside itself (path[0]): a cycle in the hierarchy"},
+      {"file,display_name,side\nskull,Skull,left\n",
+       "header: column 3 (\"side\"): unknown; expected display_name, name:<tag>, group, color, "
+       "path or system"},
+      {"file,display_name,path\nskull,Skull,\n", "skull: path: empty"},
   };
   for (size_t k = 0; k < bad.size(); ++k) {
     const std::string file = dir + "/bad" + std::to_string(k) + ".json";

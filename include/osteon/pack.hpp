@@ -59,6 +59,10 @@ struct PackOptions {
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
   /// docs/FORMAT.md); empty: display names are the part names.
   std::string names;
+  /// Where parts the names file does not place get their regions and system from (docs/FORMAT.md
+  /// "Regions"): "names" (the words of the part names: TotalSegmentator's and Slicer's classes),
+  /// "fma:DIR" (BodyParts3D's ontology tables in DIR); empty: nowhere.
+  std::string regions;
   /// Worker threads for the repeat search, segmentation and encoding; 0: every core.
   int threads = 0;
   /// The largest chunk file in bytes: component streams are concatenated in stream order into

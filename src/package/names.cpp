@@ -144,6 +144,10 @@ Status json_path(const nlohmann::json& entry, const std::string& path, const std
                  DisplayName* name) {
   const auto it = entry.find("path");
   if (it == entry.end()) return {};
+  if ((it->is_string() && it->get<std::string>().empty()) || (it->is_array() && it->empty())) {
+    return error(ErrorCode::kInvalidData, path,
+                 key + ": path: empty (leave it out for a part in no group)");
+  }
   if (it->is_string()) {
     name->path = split_path(it->get<std::string>());
     return {};
@@ -218,6 +222,13 @@ Status check_names(const std::string& path, bool listed, Names* names) {
       const std::string where = key + ": path[" + std::to_string(k) + "]";
       if (entry.path[k].name.empty()) {
         return error(ErrorCode::kInvalidData, path, where + ": an empty group name");
+      }
+      for (size_t j = 0; j < k; ++j) {
+        if (entry.path[j].name == entry.path[k].name) {
+          return error(ErrorCode::kInvalidData, path,
+                       where + ": \"" + entry.path[k].name + "\" is inside itself (path[" +
+                           std::to_string(j) + "]): a cycle in the hierarchy");
+        }
       }
       OSTEON_RETURN_IF_ERROR(check_tags(entry.path[k].names, where));
     }
@@ -361,6 +372,14 @@ Result<Names> read_names(const std::string& path) {
         const auto positional = [&](size_t c) {
           return c >= header.size() || !known(header[c]) ? c : SIZE_MAX;
         };
+        for (size_t c = 1; c < header.size(); ++c) {
+          if (!known(header[c])) {
+            return error(ErrorCode::kInvalidData, path,
+                         "header: column " + std::to_string(c + 1) + " (\"" + header[c] +
+                             "\"): unknown; expected display_name, name:<tag>, group, color, "
+                             "path or system");
+          }
+        }
         c_name = column(header, {"display_name", "label", "name"}, positional(1));
         c_group = column(header, {"group"}, positional(2));
         c_color = column(header, {"color", "colour"}, positional(3));
@@ -387,6 +406,10 @@ Result<Names> read_names(const std::string& path) {
                      f[0] + ": color: expected \"#rrggbb\" or three numbers 0..1");
       }
       name.has_color = true;
+    }
+    if (c_path != SIZE_MAX && field(c_path).empty()) {
+      return error(ErrorCode::kInvalidData, path,
+                   f[0] + ": path: empty (with a path column, every row names its groups)");
     }
     name.path = split_path(field(c_path));
     name.system = field(c_system);

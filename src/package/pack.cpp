@@ -214,6 +214,7 @@ Result<Inputs> read_stage(const std::vector<std::string>& inputs, const PackOpti
     }
   }
   progress(PackStage::kRead, inputs.size(), inputs.size());
+  OSTEON_RETURN_IF_ERROR(detail::derive_regions(options.regions, in.parts, &in.names));
   std::set<std::string> sources;
   for (const Mesh& part : in.parts) sources.insert(part.source);
   for (const std::string& source : sources) report->input_bytes += file_size_or_zero(source);
@@ -599,6 +600,19 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     }
     return parent;
   };
+  // Derived paths first, in their rank order, so that the tree reads head to toe; the names
+  // file's own paths follow in the parts' order.
+  std::vector<const detail::DisplayName*> ranked;
+  for (const Mesh& mesh : parts) {
+    auto named = names.find(detail::stem_of(mesh.name));
+    if (named == names.end() && mesh.label > 0) named = names.find(std::to_string(mesh.label));
+    if (named != names.end() && !named->second.path.empty()) ranked.push_back(&named->second);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const detail::DisplayName* a, const detail::DisplayName* b) {
+                     return a->rank < b->rank;
+                   });
+  for (const detail::DisplayName* name : ranked) add_path(name->path);
   for (size_t p = 0; p < parts.size(); ++p) {
     ManifestPart part;
     part.name = parts[p].name;

@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: Apache-2.0
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "osteon/mesh.hpp"
@@ -37,6 +40,9 @@ struct DisplayName {
   std::vector<GroupName> path;               ///< its groups, outermost first; empty: none
   std::map<std::string, std::string> names;  ///< language tag -> the part's name in it
   std::string system;                        ///< "Skeletal system", "Cartilage"; empty: none
+  /// Where a derived path's groups go among their siblings (the region table's head-to-toe
+  /// order); a names file's own paths keep the order the parts give (INT32_MAX).
+  int32_t rank = INT32_MAX;
 };
 
 /// A names file: the entries by key, and the languages of their names (the first is the
@@ -57,6 +63,63 @@ struct Names {
 /// malformed or repeated language tag, a name in a language the file does not list, an empty
 /// group name or a path deeper than kMaxGroupDepth.
 Result<Names> read_names(const std::string& path);
+
+/// Where a part sits in the skeleton: its groups, outermost first (empty: not placed), and its
+/// system.
+struct Placement {
+  std::vector<std::string> path;
+  std::string system;
+  int32_t rank = INT32_MAX;  ///< the order of its groups among their siblings (DisplayName::rank)
+};
+
+/// A row of the region table (regions.cpp, docs/FORMAT.md "Regions"): a region, or a sub-region
+/// of the region of the row before it; the FMA concepts (English names in BodyParts3D's tables)
+/// whose parts are in it; the name words that place a bone in it ("rib*": a word start).
+struct RegionRule {
+  std::string_view region;
+  std::string_view subregion;  ///< empty: the row is the region itself
+  std::vector<std::string_view> concepts;
+  std::vector<std::string_view> words;
+};
+/// A system and what places a part in it, as RegionRule.
+struct SystemRule {
+  std::string_view name;
+  std::vector<std::string_view> concepts;
+  std::vector<std::string_view> words;
+};
+extern const RegionRule kRegionRules[];
+extern const size_t kRegionRuleCount;
+extern const SystemRule kSystemRules[];
+extern const size_t kSystemRuleCount;
+
+/// The lower-case words of a name: runs of letters and digits ("rib_left_7" -> rib, left, 7).
+std::vector<std::string> name_words(std::string_view name);
+/// Whether a word is one of `patterns` (a pattern ending in '*' matches the words it starts).
+bool words_match(const std::vector<std::string>& words,
+                 const std::vector<std::string_view>& patterns);
+/// "Right" or "Left" when a word says so (English, Latin, or "r"/"l" as in "femur_l"), else "".
+std::string side_of(const std::vector<std::string>& words);
+/// Skeleton / region / [side /] [sub-region], for rows of kRegionRules (`subregion` SIZE_MAX: none).
+std::vector<std::string> region_path(size_t region, size_t subregion, const std::string& side);
+/// The rank of that path: by region row, then side (right, left, none), then sub-region row.
+int32_t region_rank(size_t region, size_t subregion, const std::string& side);
+
+/// A part placed by the words of its name (TotalSegmentator's and Slicer's class names).
+Placement place_by_words(const std::string& name);
+
+/// Parts placed by BodyParts3D's ontology tables in `dir` (conventional_part_of.txt,
+/// isa_element_parts.txt, parts_list_e.txt): each stem's FMA id ("FMA24474" in it) and FJ file id
+/// (its leading "FJ<n>") are looked up, and the region is the one whose concepts are nearest
+/// above it in the part-of graph (the element's is-a concepts count as its parents). A stem
+/// without an FMA id, or one the tables do not place, gets an empty placement. Errors:
+/// read_file's for a missing table; kInvalidData naming the file and line for a malformed one.
+Result<std::vector<Placement>> place_by_fma(const std::string& dir,
+                                            const std::vector<std::string>& stems);
+
+/// Fills the path and system of every part the names file leaves unplaced, from `source`:
+/// "names" (place_by_words) or "fma:DIR" (place_by_fma); empty: nothing. kInvalidArgument for
+/// another source.
+Status derive_regions(const std::string& source, const std::vector<Mesh>& parts, Names* names);
 
 /// The triangles `indices` of `mesh` (corner indices, three a triangle), with only their vertices,
 /// in first-use order; name, source and unit kept. O(vertices + indices).

@@ -17,7 +17,8 @@
 
 // osteon pack INPUT... -o DIR [--bits N | --precision E] [--repeat-tolerance X] [--no-repeats]
 //             [--max-triangles N] [--lod-min-triangles N] [--levels N | --no-lod]
-//             [--names FILE] [--viewer DIR | --no-viewer] [--threads T] [--json]
+//             [--names FILE] [--regions names|fma:DIR] [--viewer DIR | --no-viewer]
+//             [--threads T] [--json]
 // Runs the whole pipeline (read, clean, repeats, segment, levels, encode) and writes the package that
 // docs/FORMAT.md ("Package (osteon pack)") specifies, with the viewer's files, a complete static
 // site. A progress bar per stage on a terminal.
@@ -144,6 +145,10 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));
   cmd->add_option("--names", args->options.names,
                   "JSON or CSV mapping file stems to display names and groups");
+  cmd->add_option("--regions", args->options.regions,
+                  "Group parts the names file does not place: 'names' (by the words of their "
+                  "names, as TotalSegmentator and Slicer name bones) or 'fma:DIR' (BodyParts3D's "
+                  "ontology tables in DIR)");
   CLI::Option* viewer = cmd->add_option(
       "--viewer", args->options.viewer,
       "folder of viewer files to copy in (default: $OSTEON_VIEWER, else " OSTEON_VIEWER_DIR ")");
