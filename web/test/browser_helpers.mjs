@@ -167,7 +167,7 @@ export async function shootCanvas(page, name) {
   // The overlays (progress text, buttons) are hidden: the pixels counted are the 3D view's alone.
   const png = await canvas.screenshot({
     path: path.join(artifacts, `${name}.png`),
-    style: '#status, #view-buttons { visibility: hidden !important; }',
+    style: '#status, #view-buttons, #tools { visibility: hidden !important; }',
   });
   return { png, box };
 }

@@ -45,6 +45,7 @@ const skip = missingPrerequisite();
 if (skip) console.log(`# viewer browser tests skipped: ${skip}`);
 const bonesDir = path.join(dataDir, 'aHer-dev__3DAnatomy', 'models', 'bones');
 const metaJson = path.join(dataDir, 'aHer-dev__3DAnatomy', 'meta.json');
+const ontologyDir = path.join(dataDir, 'BodyParts3D-FMA');
 const ctSeg = path.join(dataDir, 'wasserth__TotalSegmentator', 'tests', 'reference_files', 'example_seg.nii.gz');
 const kDesktop = { viewport: { width: 1280, height: 800 }, deviceScaleFactor: 1 };
 const kPhone = { viewport: { width: 390, height: 844 }, deviceScaleFactor: 1, isMobile: true, hasTouch: true };
@@ -225,7 +226,8 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     skip: existsSync(bonesDir) ? false : `no real data at ${bonesDir}`,
   }, async () => {
     const out = path.join(site, 'bodyparts3d');
-    const m = pack([bonesDir], out, ['--names', metaJson]);
+    const regions = existsSync(path.join(ontologyDir, 'conventional_part_of.txt')) ? ['--regions', `fma:${ontologyDir}`] : [];
+    const m = pack([bonesDir], out, ['--names', metaJson, ...regions]);
     assert.equal(m.version, 3);
     const firstChunks = new Set(m.components.map((c) => (c.levels ? c.levels[0].chunk : c.chunk)));
     const firstBytes = [...firstChunks].reduce((sum, k) => sum + m.chunks[k].bytes, 0);
@@ -255,6 +257,18 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
       `${state.levelLog.length} level fetches; ${state.trianglesDrawn} of ${m.parts.reduce((s, p) => s + p.triangles, 0)} triangles drawn; ` +
       `${levelsDrawn.filter((l) => l > 0).length} of ${levelsDrawn.length} components above their coarsest level; GPU ${(state.gpuBytes / 1e6).toFixed(1)} MB`);
     assert.equal(await page.locator('#part-list li').count(), 235);
+    if (regions.length) {
+      // The regions from BodyParts3D's ontology: the tree's regions, with counts adding up to 235.
+      const items = await page.locator('#region-tree [role="treeitem"][aria-level="2"]').evaluateAll((lis) =>
+        lis.map((li) => ({ name: li.querySelector('.node-name')?.textContent ?? li.textContent, count: Number(li.dataset.count) })));
+      assert.ok(items.length >= 6, JSON.stringify(items));
+      assert.equal(items.reduce((sum, i) => sum + i.count, 0), 235, JSON.stringify(items));
+      await page.locator('#color-by').selectOption('region');
+      await settle(page);
+      await shootCanvas(page, 'bodyparts3d-colour-by-region');
+      await page.locator('#color-by').selectOption('part');
+      await settle(page);
+    }
     const tbt = await totalBlockingTime(page, state.allLoadedMs);
     console.log(`# BodyParts3D (${m.components.length} components in ${m.chunks.length} chunks, ${(state.bytesTotal / 1e6).toFixed(2)} MB) from localhost: ` +
       `manifest ${state.manifestMs.toFixed(0)} ms, first component ${state.firstComponentMs.toFixed(0)} ms, all ${state.allLoadedMs.toFixed(0)} ms after navigation; ` +
@@ -274,7 +288,7 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     await page.waitForFunction(() => window.osteon.selected !== null);
     const name = await page.locator('#info-name').textContent();
     assert.ok(skullBones.has(name), `clicked the head, got "${name}"`);
-    assert.match(await page.locator('#info-group').textContent(), /bones/);
+    assert.match(await page.locator('#info-group').textContent(), regions.length ? /Skull/ : /bones/);
     await settle(page);
     await shootCanvas(page, 'bodyparts3d-skull-selected');
     await page.screenshot({ path: path.join(artifacts, 'bodyparts3d-page.png') });
@@ -285,8 +299,14 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
   test('a CT segmentation (TotalSegmentator, --labels bones) shows 17 named, coloured bones upright and from the front', {
     skip: existsSync(ctSeg) ? false : `no real data at ${ctSeg}`,
   }, async () => {
-    const m = pack([ctSeg], path.join(site, 'ct'), ['--labels', 'bones']);
+    const m = pack([ctSeg], path.join(site, 'ct'), ['--labels', 'bones', '--regions', 'names']);
     assert.equal(m.parts.length, 17);
+    // TotalSegmentator's class names place the bones: T11-L2 in the vertebral column, the ribs
+    // and cartilages in the thorax, by side.
+    const groupOf = new Map(m.parts.map((p) => [p.name, p.group]));
+    assert.equal(groupOf.get('vertebrae_T11'), 'Skeleton / Vertebral column / Thoracic');
+    assert.equal(groupOf.get('rib_left_7'), 'Skeleton / Thorax / Left / Ribs');
+    assert.equal(groupOf.get('costal_cartilages'), 'Skeleton / Thorax / Costal cartilages');
     assert.ok(m.parts.every((p) => p.color.length === 3), 'every bone has its colour from the file');
     const context = await browser.newContext(kDesktop);
     const { page, problems } = await openViewer(context, `${server.url}ct/`);
@@ -297,6 +317,9 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     for (const bone of ['vertebrae_T11', 'vertebrae_L2', 'rib_left_7', 'costal_cartilages']) {
       assert.ok(names.some((n) => n.includes(bone)), `${bone} is listed`);
     }
+    const regions = await page.locator('#region-tree [role="treeitem"][aria-level="2"]').evaluateAll((lis) =>
+      lis.map((li) => [li.querySelector('.node-name').textContent, Number(li.dataset.count)]));
+    assert.deepEqual(regions, [['Vertebral column', 4], ['Thorax', 13]]);
     // Upright: T11 above L2 on screen; from the front: the patient's left ribs on screen right.
     const at = (name) => page.evaluate((n) => window.osteon.screenPositionOf(n), name);
     assert.ok((await at('vertebrae_T11')).y < (await at('vertebrae_L2')).y, 'upright');

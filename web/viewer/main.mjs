@@ -27,16 +27,20 @@
 import { PerspectiveCamera } from 'three';
 
 import { kFovDeg } from './camera.mjs';
+import { wireKeyboard } from './keyboard.mjs';
 import { findPart, parseManifest } from './manifest.mjs';
+import { measure, measureHits } from './measure.mjs';
+import { addNote, annotationsExport, wireNotes } from './notes.mjs';
+import { drawOverlay, wireOverlay } from './overlay.mjs';
 import {
   $, buildGroups, buildListsSoon, hidePart, isolatePart, kListsAfterMs, reportError, select, selectByName, showAllParts, showPart, updateClip,
   updateStats, updateStatus, wirePanel,
 } from './panel.mjs';
-import { picked, wirePicking } from './picking.mjs';
+import { pickAt, picked, wirePicking } from './picking.mjs';
 import { applyView, captureView, encodeViewState, parseViewState } from './share.mjs';
 import { createViewerState, emit, exposeState } from './state.mjs';
 import { componentsDrawn, componentsFailed, finish, levelFailed, levelsShown, rendererFailed, startLog, startStream } from './streaming.mjs';
-import { fitAll, frameDrawn, resize, screenBoundsOf, screenPositionOf, setBackground, setCameraView, startControls } from './view.mjs';
+import { fitAll, frameDrawn, resize, screenBoundsOf, screenPositionOf, sendParts, setBackground, setCameraView, startControls } from './view.mjs';
 
 // How long after the view's last change the URL's hash is rewritten (shareHash).
 const kShareHashMs = 300;
@@ -112,7 +116,10 @@ async function main(state) {
   report.renderer = boot.offscreen ? 'worker' : 'page';
   report.timings = boot.timings;  // the renderer's steps are added as they come
   if (!boot.offscreen) await startPageRenderer(state);
-  const onResize = () => resize(state, $(state, 'view').getBoundingClientRect());
+  const onResize = () => {
+    resize(state, $(state, 'view').getBoundingClientRect());
+    drawOverlay(state);
+  };
   state.resizeObserver = new ResizeObserver(onResize);
   state.resizeObserver.observe($(state, 'view'));
   onResize();  // the camera's aspect, before the view is fitted below
@@ -141,6 +148,26 @@ async function main(state) {
   startStream(state);
   setTimeout(() => buildListsSoon(state), kListsAfterMs);
   if (report.componentsTotal === 0) finish(state, performance.now());
+}
+
+/// Draws the parts with `colors` (3 per part, 0..1 sRGB) and `opacity` (1 per part), arrays or
+/// null (window.osteon.setPartStyle, for tests: the panel sets the same state fields).
+function setPartStyle(state, { colors = null, opacity = null } = {}) {
+  if (!state.manifest) return false;
+  state.partColors = colors ? Float32Array.from(colors) : null;
+  state.partOpacity = opacity ? Float32Array.from(opacity) : null;
+  sendParts(state);
+  return true;
+}
+
+/// A Promise of the renderer's answer to a pick at `ndc`, through see-through parts with `xray`
+/// (window.osteon.pickAt).
+function pickWith(state, ndc, xray) {
+  const before = state.xrayPick;
+  state.xrayPick = xray;
+  const answer = pickAt(state, ndc);  // sends at once
+  state.xrayPick = before;
+  return answer;
 }
 
 /// A view asked for before or after the manifest was read: { camera } (parseCamera's) or
@@ -226,10 +253,17 @@ export function createViewer({ host, root, boot, budget = {}, background, syncHa
     viewState: () => (state.manifest && state.controls ? encodeViewState(captureView(state)) : null),
     setViewState: (text) => applyPending(state, parseViewState(text)),
     cameraState: () => (state.controls ? captureView(state).camera : null),
+    measure: (...points) => measure(state, ...points),
+    measureAt: async (...ndcs) => measureHits(state, await Promise.all(ndcs.map((ndc) => pickAt(state, ndc)))),
+    setPartStyle: (style) => setPartStyle(state, style),
+    pickAt: (ndc, { xray = false } = {}) => pickWith(state, ndc, xray),
+    addNote: (note) => addNote(state, note),
+    notes: () => annotationsExport(state),
   });
   state.shareLink = () => shareLink(state, syncHash);
   let shareTimer = null;
   state.onViewChanged = () => {
+    drawOverlay(state);  // the measurements and notes follow the camera
     if (!state.shareArmed || shareTimer !== null) return;
     shareTimer = setTimeout(() => {
       shareTimer = null;
@@ -247,7 +281,10 @@ export function createViewer({ host, root, boot, budget = {}, background, syncHa
   if (syncHash && location.hash.length > 1) applyPending(state, parseViewState(location.hash));
   if (background) root.getElementById('view').style.background = background;
   wirePicking(state);
+  wireOverlay(state);
+  wireNotes(state);
   wirePanel(state);
+  wireKeyboard(state);
   main(state).catch((e) => {
     reportError(state, `osteon: the viewer failed: ${e?.stack ?? e}`);
     state.report.done = true;

@@ -1,10 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // The viewer's panel (index.html's markup, in the element's shadow root): the error box, the
 // progress bar and status line, the statistics, the selected bone's info, the list of bones with
-// its search and checkboxes, the groups, the clipping plane, "Copy link", and the buttons. Every function takes the viewer's state (state.mjs); wirePanel
-// attaches the listeners once.
+// its search and checkboxes, the region tree (region_tree.mjs) and the opacity of its nodes, the
+// language menu, "Colour by" and its legend, the x-ray, the groups, the clipping plane, "Copy
+// link", and the buttons. Every function takes the viewer's state (state.mjs); wirePanel
+// attaches the listeners once. Every name from the package is set as text, never as markup.
 
+import { baseLanguage, groupPath, langAttribute, languageLabel, partGroupText, partName } from './language.mjs';
 import { drawInfo, drawStats, findPart, formatLength } from './manifest.mjs';
+import { colorBy } from './palette.mjs';
+import { buildTree, filterTree, nodeName, partsUnder, renameTree, revealNode, updateTreeChecks } from './region_tree.mjs';
 import { emit, partVisible, viewChanged } from './state.mjs';
 import { fitAll, framePart, requestRender, send, sendParts } from './view.mjs';
 
@@ -102,9 +107,10 @@ export function applyVisibility(state) {
     row.li.classList.toggle('hidden-part', !visible);
   }
   for (const [group, on] of state.groupOn) {
-    const box = state.root.querySelector(`#group-list input[data-group="${CSS.escape(group)}"]`);
+    const box = state.groupBoxes.get(group);
     if (box) box.checked = on;
   }
+  updateTreeChecks(state);
   sendParts(state);
   updateStats(state);
   viewChanged(state);
@@ -187,7 +193,13 @@ export function showInfo(state) {
   const { manifest, selectedPart } = state;
   const part = selectedPart >= 0 ? manifest.parts[selectedPart] : null;
   state.report.selected = part ? part.displayName : null;
-  $(state, 'info-name').textContent = part ? part.displayName : 'No bone selected';
+  const name = part ? partName(manifest, part, state.language) : 'No bone selected';
+  $(state, 'info-name').textContent = name;
+  $(state, 'info-name').lang = part ? langAttribute(state.language) : 'en';
+  // The Latin name, in smaller type under the name, when the panel shows another language.
+  const latin = !part ? '' : baseLanguage(manifest) === 'la' ? part.displayName : part.names.la ?? '';
+  $(state, 'info-latin').textContent = latin;
+  $(state, 'info-latin').hidden = !latin || state.language === 'la' || latin === name;
   $(state, 'info-hint').hidden = !!part;
   $(state, 'info-fields').hidden = !part;
   for (const id of ['frame', 'hide', 'isolate']) $(state, id).disabled = !part;
@@ -195,7 +207,7 @@ export function showInfo(state) {
   if (!part) return;
   const bound = Math.max(...manifest.instancesOfPart[part.id].map((i) => manifest.instances[i].errorBound));
   const drawn = drawnAs(state, part);
-  $(state, 'info-group').textContent = part.group || '(none)';
+  $(state, 'info-group').textContent = partGroupText(manifest, part, state.language) || '(none)';
   $(state, 'info-triangles').textContent = part.triangles.toLocaleString('en');
   $(state, 'info-error').textContent = Number.isFinite(bound) ? formatLength(bound, manifest.unit) : '–';
   $(state, 'info-drawn').textContent = drawn.text;
@@ -209,13 +221,19 @@ export function showInfo(state) {
 
 /// Selects part `partId` (-1: none): highlighted, its info shown, framed if `frame`, its row
 /// scrolled into view if `scroll`.
-export function select(state, partId, { frame = false, scroll = true } = {}) {
+export function select(state, partId, { frame = false, scroll = true, reveal = true } = {}) {
   const changed = state.selectedPart !== partId;
   state.selectedPart = partId;
+  if (state.xray) updateOpacity(state);
   sendParts(state);
   showInfo(state);
+  if (reveal && state.tree) {
+    revealNode(state, partId >= 0 ? `p${partId}` : null, { scroll });
+    showNodeOpacity(state);
+  }
   if (changed) {
     const part = partId >= 0 ? state.manifest.parts[partId] : null;
+    $(state, 'announce').textContent = part ? partName(state.manifest, part, state.language) : 'No bone selected';
     emit(state, 'select', part
       ? { name: part.displayName, partName: part.name, part: part.id, group: part.group, source: part.source || null, triangles: part.triangles }
       : { name: null, partName: null, part: -1, group: null, source: null, triangles: 0 });
@@ -247,18 +265,27 @@ function buildLists(state) {
     checkbox.type = 'checkbox';
     checkbox.checked = partVisible(state, part.id);
     checkbox.dataset.part = String(part.id);
-    checkbox.setAttribute('aria-label', `Show ${part.displayName}`);
     const button = document.createElement('button');
     button.type = 'button';
-    button.textContent = part.displayName;
     button.title = part.name;
     button.dataset.part = String(part.id);
     li.append(checkbox, button);
     li.classList.toggle('hidden-part', !partVisible(state, part.id));
     rows.append(li);
-    partRows.push({ part, li, checkbox, button });
+    const row = { part, li, checkbox, button };
+    nameRow(state, row);
+    partRows.push(row);
   }
   list.append(rows);
+  const tree = buildTree(state, $(state, 'region-tree'), {
+    partVisible: (id) => partVisible(state, id),
+    toggle: (key) => toggleNode(state, key),
+    select: (key) => selectNode(state, key),
+  });
+  if (tree) {
+    $(state, 'tree-box').hidden = false;
+    $(state, 'part-list-box').open = false;  // the tree lists them all; the flat list stays a click away
+  }
   // One listener each for the whole list instead of two per bone.
   list.addEventListener('change', (e) => {
     const id = Number(e.target.dataset.part);
@@ -277,6 +304,16 @@ function buildLists(state) {
   });
   filterList(state);
   showInfo(state);
+  if (tree && state.selectedPart >= 0) revealNode(state, `p${state.selectedPart}`);
+  showNodeOpacity(state);
+}
+
+/// Names part row `row` (in the part list) in the panel's language.
+function nameRow(state, row) {
+  const name = partName(state.manifest, row.part, state.language);
+  row.button.textContent = name;
+  row.button.lang = langAttribute(state.language);
+  row.checkbox.setAttribute('aria-label', `Show ${name}`);
 }
 
 // The list of bones (235 rows for BodyParts3D) is built once loading has ended, or kListsAfterMs
@@ -295,9 +332,16 @@ export function buildListsSoon(state) {
 /// The group checkboxes, all on, once the manifest is read.
 export function buildGroups(state) {
   const { manifest, groupOn } = state;
+  buildLanguages(state);
+  // The region tree (built with the lists) has these groups' check boxes, nested.
+  $(state, 'groups-section').hidden = manifest.groups.length > 0;
   const groups = $(state, 'group-list');
+  const counts = new Map();
+  for (const part of manifest.parts) counts.set(part.group, (counts.get(part.group) ?? 0) + 1);
   for (const group of [...manifest.groupLabels].sort()) {
     groupOn.set(group, true);
+    // With a region tree, its check boxes stand for these.
+    if (manifest.groups.length) continue;
     const label = document.createElement('label');
     const box = document.createElement('input');
     box.type = 'checkbox';
@@ -307,45 +351,263 @@ export function buildGroups(state) {
       groupOn.set(group, box.checked);
       applyVisibility(state);
     });
-    const n = manifest.parts.filter((p) => p.group === group).length;
-    label.append(box, ` ${group || '(no group)'} (${n})`);
+    label.append(box, ` ${group || '(no group)'} (${counts.get(group)})`);
     groups.append(label);
+    state.groupBoxes.set(group, box);
   }
+}
+
+/// The most matches of a search the region tree expands to (the count says how many there are).
+const kTreeMatches = 500;
+
+/// What a search looks in, lower case: per part its names in every language, its name and its
+/// groups' names in every language; per group its names.
+function searchIndex(state) {
+  if (!state.searchIndex) {
+    const { manifest } = state;
+    const groups = manifest.groups.map((g) => [g.name, ...Object.values(g.names)].join('\n').toLowerCase());
+    const parts = manifest.parts.map((p) => {
+      const words = [p.displayName, p.name, ...Object.values(p.names), p.group];
+      if (p.path >= 0) for (const g of groupPath(manifest, p.path)) words.push(groups[g]);
+      return words.join('\n').toLowerCase();
+    });
+    state.searchIndex = { parts, groups };
+  }
+  return state.searchIndex;
 }
 
 function filterList(state) {
   const { partRows } = state;
   const q = $(state, 'search').value.trim().toLowerCase();
+  const index = searchIndex(state);
   let shown = 0;
   for (const row of partRows) {
-    const match = !q || row.part.displayName.toLowerCase().includes(q) || row.part.name.toLowerCase().includes(q);
+    const match = !q || index.parts[row.part.id].includes(q);
     row.li.hidden = !match;
     shown += match;
   }
   $(state, 'part-count').textContent = q ? `${shown} of ${partRows.length} match` : `${partRows.length} bones`;
+  if (state.tree && q !== state.tree.query) {
+    state.tree.query = q;
+    if (!q) {
+      filterTree(state, null);
+    } else {
+      const parts = partRows.filter((r) => !r.li.hidden).slice(0, kTreeMatches).map((r) => r.part.id);
+      const groups = [];
+      for (let g = 0; g < index.groups.length && groups.length < kTreeMatches; ++g) if (index.groups[g].includes(q)) groups.push(g);
+      filterTree(state, parts, groups);
+    }
+  }
   return partRows.filter((r) => !r.li.hidden);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The region tree's nodes, the language, colours and opacity
+
+/// A tree node's check box (or Enter, Space): hides every part under it when all are shown,
+/// else shows them all (and their groups).
+export function toggleNode(state, key) {
+  const ids = partsUnder(state, key);
+  if (ids.every((id) => partVisible(state, id))) {
+    for (const id of ids) state.hiddenParts.add(id);
+  } else {
+    for (const id of ids) {
+      state.hiddenParts.delete(id);
+      state.groupOn.set(state.manifest.parts[id].group, true);
+    }
+  }
+  applyVisibility(state);
+}
+
+/// Hides every part under tree node `key`.
+export function hideNode(state, key) {
+  for (const id of partsUnder(state, key)) state.hiddenParts.add(id);
+  applyVisibility(state);
+}
+
+/// Shows the parts under tree node `key` alone.
+export function isolateNode(state, key) {
+  const { manifest, hiddenParts } = state;
+  const keep = new Set(partsUnder(state, key));
+  for (const part of manifest.parts) {
+    if (keep.has(part.id)) {
+      hiddenParts.delete(part.id);
+      state.groupOn.set(part.group, true);
+    } else {
+      hiddenParts.add(part.id);
+    }
+  }
+  applyVisibility(state);
+}
+
+/// A tree node clicked, or reached with the arrow keys: a bone is selected; a group becomes the
+/// tree's selection (what the opacity slider sets), and no bone is.
+export function selectNode(state, key) {
+  if (key[0] === 'p') {
+    select(state, Number(key.slice(1)), { scroll: false });
+  } else {
+    select(state, -1, { reveal: false });
+    revealNode(state, key, { scroll: false });
+    showNodeOpacity(state);
+  }
+}
+
+/// The language menu: the manifest's languages (hidden when it has fewer than two).
+function buildLanguages(state) {
+  const { manifest } = state;
+  state.language = baseLanguage(manifest);
+  state.report.language = state.language;
+  const menu = $(state, 'language');
+  menu.replaceChildren(...manifest.languages.map((tag) => {
+    const option = document.createElement('option');
+    option.value = tag;
+    option.textContent = languageLabel(tag);
+    return option;
+  }));
+  menu.value = state.language;
+  $(state, 'language-label').hidden = manifest.languages.length < 2;
+}
+
+/// Names the bones and regions in language `tag` (one of manifest.languages) everywhere in the
+/// panel: the tree, the list, the info box, the legend.
+export function setLanguage(state, tag) {
+  const { manifest } = state;
+  if (!manifest || !(manifest.languages.includes(tag) || tag === baseLanguage(manifest))) return false;
+  state.language = tag;
+  state.report.language = tag;
+  $(state, 'language').value = tag;
+  for (const row of state.partRows) nameRow(state, row);
+  renameTree(state);
+  showInfo(state);
+  drawLegend(state);
+  showNodeOpacity(state);
+  return true;
+}
+
+/// Colours the parts by `mode`: 'part' (each its own colour, the manifest's), 'region' or
+/// 'system' (palette.mjs), and shows the legend.
+export function setColorBy(state, mode) {
+  const { manifest } = state;
+  if (!manifest) return;
+  const by = colorBy(manifest, mode);
+  state.colorBy = by ? mode : 'part';
+  $(state, 'color-by').value = state.colorBy;
+  state.partColors = by?.colors ?? null;
+  state.legend = by?.legend ?? null;
+  state.report.colorBy = state.colorBy;
+  state.report.partColors = state.partColors && [...state.partColors];
+  drawLegend(state);
+  sendParts(state);
+}
+
+function drawLegend(state) {
+  const legend = $(state, 'legend');
+  const entries = state.legend ?? [];
+  legend.replaceChildren(...entries.map((entry) => {
+    const li = document.createElement('li');
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = `rgb(${entry.color.join(' ')})`;
+    swatch.setAttribute('aria-hidden', 'true');
+    const label = document.createElement('span');
+    label.textContent = entry.label(state.language);
+    label.lang = langAttribute(state.language);
+    li.append(swatch, label);
+    return li;
+  }));
+  legend.hidden = !entries.length;
+}
+
+/// How see-through the x-ray draws every bone but the selected one.
+export const kXrayOpacity = 0.3;
+
+/// state.partOpacity from the opacities chosen per node, with the x-ray's on top.
+function updateOpacity(state) {
+  const n = state.manifest.parts.length;
+  const chosen = state.chosenOpacity;
+  let opacity = chosen ? chosen.slice() : null;
+  if (state.xray) {
+    opacity ??= new Float32Array(n).fill(1);
+    for (let i = 0; i < n; ++i) if (i !== state.selectedPart) opacity[i] = Math.min(opacity[i], kXrayOpacity);
+  }
+  state.partOpacity = opacity;
+  state.report.partOpacity = opacity && [...opacity];
+}
+
+/// The parts the opacity slider sets: those under the tree's selected node, else every part.
+function opacityParts(state) {
+  const key = state.tree?.selectedKey;
+  return key ? partsUnder(state, key) : state.manifest.parts.map((p) => p.id);
+}
+
+/// Sets the opacity (0..1) of the parts under the tree's selected node (every part when none is).
+export function setNodeOpacity(state, value) {
+  const { manifest } = state;
+  if (!manifest) return;
+  const opacity = state.chosenOpacity ?? new Float32Array(manifest.parts.length).fill(1);
+  for (const id of opacityParts(state)) opacity[id] = Math.min(1, Math.max(0, value));
+  state.chosenOpacity = opacity.every((v) => v === 1) ? null : opacity;
+  updateOpacity(state);
+  showNodeOpacity(state);
+  sendParts(state);
+}
+
+/// The opacity slider shows the selected node's name and its parts' (mean) opacity.
+function showNodeOpacity(state) {
+  if (!state.manifest) return;
+  const key = state.tree?.selectedKey;
+  const ids = opacityParts(state);
+  const chosen = state.chosenOpacity;
+  const mean = chosen && ids.length ? ids.reduce((sum, id) => sum + chosen[id], 0) / ids.length : 1;
+  $(state, 'node-opacity-name').textContent = key ? nodeName(state, key) : 'every bone';
+  $(state, 'node-opacity-name').lang = key ? langAttribute(state.language) : 'en';
+  $(state, 'node-opacity').value = String(Math.round(mean * 100));
+  $(state, 'node-opacity-value').textContent = `${Math.round(mean * 100)}%`;
+}
+
+/// The x-ray: every bone but the selected one drawn at kXrayOpacity, picks through them.
+export function setXray(state, on) {
+  state.xray = on;
+  state.xrayPick = on;
+  state.report.xray = on;
+  $(state, 'xray').checked = on;
+  if (!state.manifest) return;
+  updateOpacity(state);
+  sendParts(state);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Clipping plane
 
-/// Sends the clipping plane the controls describe to the renderer.
-export function updateClip(state) {
+/// The plane of one axis, position and flip control set (`prefix` 'clip' or 'clip2'): across the
+/// package's box at the slider's fraction of it, keeping the side above (below, flipped). Shows
+/// its position beside the slider.
+function axisPlane(state, prefix, positionId) {
   const { manifest } = state;
-  if (!manifest) return;
-  const on = $(state, 'clip-on').checked;
-  const axis = Number($(state, 'clip-axis').value);
-  const t = Number($(state, 'clip-pos').value) / 1000;
+  const axis = Number($(state, `${prefix}-axis`).value);
+  const t = Number($(state, positionId).value) / 1000;
   const lo = manifest.bounds.min[axis];
   const hi = manifest.bounds.max[axis];
   const at = lo + t * (hi - lo);
-  const sign = $(state, 'clip-flip').checked ? -1 : 1;
+  const sign = $(state, `${prefix}-flip`).checked ? -1 : 1;
   // Three.js draws the side where normal . p + constant >= 0: keep p[axis] >= at, or <= at.
   const normal = [0, 0, 0];
   normal[axis] = sign;
-  $(state, 'clip-value').textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
-  state.clip = { on, normal, constant: -sign * at };
-  send(state, { type: 'clip', on, normal, constant: -sign * at });
+  $(state, `${prefix}-value`).textContent = `${'XYZ'[axis]} = ${formatLength(at, manifest.unit)}`;
+  return { normal, constant: -sign * at };
+}
+
+/// Sends the cut the controls describe to the renderer: the clipping plane, the second plane
+/// where it is on (what either cuts away is removed), and whether the sections are filled.
+export function updateClip(state) {
+  if (!state.manifest) return;
+  const on = $(state, 'clip-on').checked;
+  const first = axisPlane(state, 'clip', 'clip-pos');
+  const planes = [first];
+  if ($(state, 'clip2-on').checked) planes.push(axisPlane(state, 'clip2', 'clip2-at'));
+  const cap = $(state, 'clip-cap').checked;
+  state.clip = { on, normal: first.normal, constant: first.constant, cap, planes };
+  send(state, { type: 'clip', ...state.clip });
   requestRender(state);
   viewChanged(state);
 }
@@ -402,12 +664,18 @@ export function wirePanel(state) {
   $(state, 'isolate').addEventListener('click', () => state.selectedPart >= 0 && isolatePart(state, state.selectedPart));
   $(state, 'show-all').addEventListener('click', () => state.manifest && showAllParts(state));
   $(state, 'copy-link').addEventListener('click', () => state.manifest && copyLink(state));
-  $(state, 'search').addEventListener('input', () => filterList(state));
+  $(state, 'search').addEventListener('input', () => state.manifest && filterList(state));
+  $(state, 'language').addEventListener('change', (e) => setLanguage(state, e.target.value));
+  $(state, 'color-by').addEventListener('change', (e) => setColorBy(state, e.target.value));
+  $(state, 'node-opacity').addEventListener('input', (e) => setNodeOpacity(state, Number(e.target.value) / 100));
+  $(state, 'xray').addEventListener('change', (e) => setXray(state, e.target.checked));
   $(state, 'search').addEventListener('keydown', (e) => {
     if (e.key !== 'Enter' || !state.manifest) return;
     const first = filterList(state)[0];
     if (first) select(state, first.part.id, { frame: true });
   });
-  for (const id of ['clip-on', 'clip-axis', 'clip-flip']) $(state, id).addEventListener('change', () => updateClip(state));
-  $(state, 'clip-pos').addEventListener('input', () => updateClip(state));
+  for (const id of ['clip-on', 'clip-axis', 'clip-flip', 'clip-cap', 'clip2-on', 'clip2-axis', 'clip2-flip']) {
+    $(state, id).addEventListener('change', () => updateClip(state));
+  }
+  for (const id of ['clip-pos', 'clip2-at']) $(state, id).addEventListener('input', () => updateClip(state));
 }

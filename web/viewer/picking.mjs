@@ -2,7 +2,12 @@
 // Picking a bone on the canvas: a tap or click (a pointer that moved no further than kTapPixels;
 // further is a drag, which orbits) asks the renderer, which holds the meshes, to cast the ray; it
 // answers with the part ('picked'), which the panel selects. Escape clears the selection.
+// With the Measure or Note tool on (overlay.mjs), the answer's surface point goes to the tool
+// instead (measure.mjs, notes.mjs), and Escape clears the measurements first, then the tool.
 
+import { clearMeasurements, finishMeasurement, measurePicked } from './measure.mjs';
+import { notePicked } from './notes.mjs';
+import { annotations, setTool } from './overlay.mjs';
 import { select } from './panel.mjs';
 import { send, sendCamera } from './view.mjs';
 
@@ -12,14 +17,42 @@ function pick(state, clientX, clientY) {
   if (!state.manifest || !state.link) return;
   const rect = state.canvas.getBoundingClientRect();
   const ndc = [((clientX - rect.left) / rect.width) * 2 - 1, -((clientY - rect.top) / rect.height) * 2 + 1];
-  state.camera.updateMatrixWorld();
-  sendCamera(state);  // the ray is cast from the camera as it is now, not as of the last frame
-  send(state, { type: 'pick', id: ++state.pickSeq, ndc });
+  annotations(state).lastTap = { x: clientX, y: clientY };  // where the note's field opens
+  castRay(state, ndc);
 }
 
-/// The renderer's answer to a pick: selects the part (or none, for -1) unless a later pick is out.
+/// Asks the renderer for the ray through `ndc`; returns the pick's id.
+function castRay(state, ndc) {
+  state.camera.updateMatrixWorld();
+  sendCamera(state);  // the ray is cast from the camera as it is now, not as of the last frame
+  send(state, { type: 'pick', id: ++state.pickSeq, ndc, xray: state.xrayPick });
+  return state.pickSeq;
+}
+
+/// A pick at `ndc` ([x, y], normalized device coordinates) that neither selects nor feeds a tool:
+/// a Promise of the renderer's 'picked' answer ({ part, point, normal }), null before the
+/// manifest is read (window.osteon.measureAt).
+export function pickAt(state, ndc) {
+  if (!state.manifest || !state.link) return Promise.resolve(null);
+  const id = castRay(state, ndc);
+  return new Promise((resolve) => annotations(state).pickWaiters.set(id, resolve));
+}
+
+/// The renderer's answer to a pick: selects the part (or none, for -1) unless a later pick is out;
+/// with a tool on, the tool takes the point instead.
 export function picked(state, message) {
-  if (message.id === state.pickSeq && state.manifest) select(state, message.part);
+  const waiters = state.annotations?.pickWaiters;
+  const waiter = waiters?.get(message.id);
+  if (waiter) {
+    waiters.delete(message.id);
+    waiter(message);
+    return;
+  }
+  if (message.id !== state.pickSeq || !state.manifest) return;
+  const tool = state.annotations?.tool;
+  if (tool === 'measure') measurePicked(state, message);
+  else if (tool === 'note') notePicked(state, message);
+  else select(state, message.part);
 }
 
 /// Attaches the canvas's pointer and key listeners (once).
@@ -37,6 +70,11 @@ export function wirePicking(state) {
   });
   canvas.addEventListener('pointercancel', () => { state.pointerDown = null; });
   canvas.addEventListener('keydown', (e) => {
-    if (e.key === 'Escape' && state.manifest) select(state, -1);
+    if (!state.manifest) return;
+    if (e.key === 'Enter' && state.annotations?.tool === 'measure') finishMeasurement(state);
+    if (e.key !== 'Escape') return;
+    if (clearMeasurements(state)) return;
+    if (state.annotations?.tool) setTool(state, null);
+    else select(state, -1);
   });
 }

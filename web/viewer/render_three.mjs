@@ -10,13 +10,17 @@
 // before they are needed.
 
 import {
+  BackSide,
   BufferAttribute,
   BufferGeometry,
   Color,
   DirectionalLight,
+  FrontSide,
   Group,
   HemisphereLight,
   InstancedMesh,
+  Matrix3,
+  Matrix4,
   Mesh,
   Object3D,
   PerspectiveCamera,
@@ -29,6 +33,7 @@ import {
 } from 'three';
 
 import { kBackground, kFovDeg, packageView } from './camera.mjs';
+import { createCapping } from './cap.mjs';
 import { createPackageScene } from './scene.mjs';
 
 /// Creates the view of `manifest` (manifest.mjs) on `canvas` (an OffscreenCanvas or a canvas
@@ -36,7 +41,7 @@ import { createPackageScene } from './scene.mjs';
 /// `width`, `height`: the canvas's size in CSS pixels; `pixelRatio`: device pixels per CSS pixel;
 /// `background`: the scene's colour ('#rrggbb' or a number; default camera.mjs kBackground).
 export function createView({ canvas, context, manifest, width, height, pixelRatio, background = kBackground }) {
-  const renderer = new WebGLRenderer({ canvas, context, antialias: true });
+  const renderer = new WebGLRenderer({ canvas, context, antialias: true, stencil: true });
   // The context may have drawn the first frames (first_frames.mjs): three.js's cached state
   // starts from the context's defaults.
   renderer.resetState();
@@ -56,10 +61,11 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
   headlightTarget.position.set(0, 0, -1);
   camera.add(headlight, headlightTarget);
   headlight.target = headlightTarget;
-  const clipPlane = new Plane(new Vector3(0, 0, 1), 0);
-  let clipping = false;
+  const clipPlanes = [];  // the planes in use (1 or 2), while the cut is on
   const raycaster = new Raycaster();
+  const seeThroughStandIns = [];  // prepareSeeThrough's materials, which keep its programs
   const packageScene = createPackageScene(manifest, root);
+  const capping = createCapping(scene);  // the cut's sections, filled (cap.mjs)
 
   let size = '';
   function setSize({ width: w, height: h, pixelRatio: ratio }) {
@@ -82,6 +88,18 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
   camera.lookAt(initial.target);
   camera.updateProjectionMatrix();
 
+  /// A raycast hit's point and face normal in the root group's frame, as [x, y, z] arrays.
+  function hitInPackage(hit) {
+    const { object } = hit;
+    // Geometry to root: the object's own matrix, after the instance's in a batch.
+    const toRoot = new Matrix4().copy(root.matrixWorld).invert().multiply(object.matrixWorld);
+    if (object.isInstancedMesh) toRoot.multiply(object.getMatrixAt(hit.instanceId, new Matrix4()));
+    const normal = hit.face.normal.clone().applyNormalMatrix(new Matrix3().getNormalMatrix(toRoot));
+    // A mirrored batch draws a copy of the index buffer with every triangle turned round.
+    if (object.isInstancedMesh && object.userData.batch?.mirror) normal.negate();
+    return { point: root.worldToLocal(hit.point.clone()).toArray(), normal: normal.toArray() };
+  }
+
   return {
     add: (id, mesh) => packageScene.addComponent(id, mesh),
     addLevel: (id, level, mesh) => packageScene.addLevel(id, level, mesh),
@@ -90,6 +108,7 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
     takeLevelChanges: () => packageScene.takeLevelChanges(),
 
     render() {
+      capping.update(packageScene.batches);
       renderer.render(scene, camera);
     },
 
@@ -101,6 +120,28 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
     /// canvas would get no empty frame, but three.js would compile other programs: a target
     /// gets linear output, the canvas sRGB.) With `draw` false (first frames are on screen and
     /// the frame with every bone follows in the same task) only compiled: that frame's draw links.
+    /// Compiles, without drawing, the programs of see-through parts (scene.mjs: transparent,
+    /// one material per side), with the clipping planes as they are now, so that the first part
+    /// made see-through does not wait for them. For the render worker to call once the skeleton
+    /// is drawn: the compile holds up, on the GPU, the frames queued after it. The stand-in
+    /// materials are kept (disposing them would free the programs).
+    prepareSeeThrough() {
+      const geometry = new BufferGeometry();
+      geometry.setAttribute('position', new BufferAttribute(new Float32Array(9), 3));
+      geometry.setAttribute('normal', new BufferAttribute(new Float32Array([0, 0, 1, 0, 0, 1, 0, 0, 1]), 3));
+      const bone = packageScene.materials[0];
+      const objects = [BackSide, FrontSide].map((side) => {
+        const material = Object.assign(bone.clone(), { transparent: true, depthWrite: false, side });
+        material.clippingPlanes = bone.clippingPlanes;
+        seeThroughStandIns.push(material);
+        return Object.assign(new Mesh(geometry, material), { frustumCulled: false });
+      });
+      root.add(...objects);
+      renderer.compile(scene, camera);
+      root.remove(...objects);
+      geometry.dispose();
+    },
+
     precompile({ draw = true } = {}) {
       const geometry = new BufferGeometry();
       geometry.setAttribute('position', new BufferAttribute(new Float32Array(9), 3));
@@ -136,30 +177,46 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
       scene.background.set(color);
     },
 
-    setParts({ hidden, highlight }) {
-      packageScene.setVisibility((part) => !hidden[part]);
-      packageScene.setHighlight(highlight);
+    /// Which parts are hidden (1 per hidden part) and highlighted (a part id or -1), and how the
+    /// others are drawn: `colors` (3 per part, 0..1, the manifest's colour space; null: the
+    /// manifest's) and `opacity` (1 per part, 0..1; null: all opaque). scene.mjs setStyle.
+    setParts({ hidden, highlight, colors = null, opacity = null }) {
+      packageScene.setStyle({ visible: (part) => !hidden[part], highlight, colors, opacity });
     },
 
-    setClip({ on, normal, constant }) {
-      clipPlane.normal.fromArray(normal);
-      clipPlane.constant = constant;
-      clipping = on;
-      for (const material of packageScene.materials) {
-        const planes = on ? [clipPlane] : null;
-        if ((material.clippingPlanes?.length ?? 0) !== (planes?.length ?? 0)) material.needsUpdate = true;
-        material.clippingPlanes = planes;
+    /// The cut: `planes` ([{ normal: [x, y, z], constant }], 1 or 2; absent: the one plane of
+    /// `normal` and `constant`), each keeping the side where normal . p + constant >= 0 (what
+    /// any plane cuts away is removed), and with `cap`, the sections filled (cap.mjs).
+    setClip({ on, normal, constant, cap = true, planes = null }) {
+      const given = (planes?.length ? planes : [{ normal, constant }]).slice(0, 2);
+      clipPlanes.length = 0;
+      if (on) {
+        for (const p of given) clipPlanes.push(new Plane(new Vector3().fromArray(p.normal), p.constant).normalize());
       }
+      for (const material of packageScene.materials) {
+        const cut = on ? [...clipPlanes] : null;
+        if ((material.clippingPlanes?.length ?? 0) !== (cut?.length ?? 0)) material.needsUpdate = true;
+        material.clippingPlanes = cut;
+      }
+      capping.setPlanes([...clipPlanes], on && cap);
     },
 
-    /// The part under `ndc` (normalized device coordinates, [-1, 1] each), or -1. Raycasts ignore
-    /// clipping planes: hits on the side cut away are skipped.
-    pick(ndc) {
-      camera.updateMatrixWorld();
+    /// What is under `ndc` (normalized device coordinates, [-1, 1] each): { part, point, normal },
+    /// the nearest hit on a visible part (part -1, point and normal null where there is none).
+    /// With `xray`, parts drawn see-through (opacity below 1) are skipped: the pick goes through
+    /// to the opaque bone behind. Raycasts ignore clipping planes: hits on the side cut away are
+    /// skipped. `point` and `normal` are [x, y, z] in the package's frame (the root group's, that
+    /// of the manifest's bounds); `normal` is the hit triangle's, unit length, on the side its
+    /// winding makes the front (outward on a consistently wound closed bone: it may face away
+    /// from the camera where the pick hits the inside of a cut or open surface).
+    /// O(triangles of the objects whose bounding spheres the ray crosses).
+    pick(ndc, { xray = false } = {}) {
+      scene.updateMatrixWorld();  // objects made since the last frame
       raycaster.setFromCamera(new Vector2(ndc[0], ndc[1]), camera);
       const hit = raycaster.intersectObjects(packageScene.pickable(), false)
-        .find((h) => !clipping || clipPlane.distanceToPoint(h.point) >= 0);
-      return hit ? packageScene.partOf(hit) : -1;
+        .find((h) => clipPlanes.every((p) => p.distanceToPoint(h.point) >= 0) && !(xray && packageScene.partOpacity(packageScene.partOf(h)) < 1));
+      if (!hit) return { part: -1, point: null, normal: null };
+      return { part: packageScene.partOf(hit), ...hitInPackage(hit) };
     },
   };
 }

@@ -44,18 +44,29 @@
 //                                           the evicted levels' geometry
 //   { type: 'camera', position, quaternion, up, fov, aspect, near, far }
 //   { type: 'size', width, height, pixelRatio }
-//   { type: 'parts', hidden (Uint8Array, 1 per hidden part), highlight (part id or -1) }
-//   { type: 'clip', on, normal, constant }
+//   { type: 'parts', hidden (Uint8Array, 1 per hidden part), highlight (part id or -1),
+//     colors (Float32Array, 3 per part, 0..1 in the manifest's colour space, or null/absent: the
+//     manifest's colours), opacity (Float32Array, 1 per part, 0..1, or null/absent: opaque) }
+//   { type: 'clip', on, normal, constant, cap, planes? }
+//                                           the cut: `planes` ([{ normal, constant }], 1 or 2)
+//                                           wins over normal and constant; `cap` fills the sections
 //   { type: 'background', color }          the view's background, '#rrggbb'
-//   { type: 'pick', id, ndc: [x, y] }      answered by { type: 'picked', id, part }
+//   { type: 'pick', id, ndc: [x, y], xray } answered by { type: 'picked', id, part, point, normal }
+//                                           (render_three.mjs pick: part -1 and point, normal
+//                                           null where nothing is hit; `xray`: through parts
+//                                           drawn see-through)
 //   { type: 'render', seq }                 draw; the frame reports the seq
 //   { type: 'shown', frame }                the page has had an animation frame since that frame
 // Messages to the page (times are the page's performance.now()):
-//   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]] }
+//   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]], renderMs, partsMs }
 //                                                     a frame was drawn (render() returned, or
 //                                                     first_frames.mjs's draw), with
 //                                                     the page's changes up to `seq`; `drawn`
-//                                                     appear in it first, `levels` at a new level
+//                                                     appear in it first, `levels` at a new level;
+//                                                     renderMs: how long three.js's render() took
+//                                                     on this thread (not the GPU's work),
+//                                                     partsMs: setParts, when a 'parts' message
+//                                                     was applied since the last frame
 //   { type: 'failed', ids, error, at, level? }        a mesh the scene refused (`level`: a finer
 //                                                     level's, the component stays drawn)
 //   { type: 'fatal', error, at }                      nothing will be drawn
@@ -73,12 +84,13 @@ import { parseManifest } from './manifest.mjs';
 /* global OSTEON_RENDER_THREE_FILE */
 const kThreeFile = typeof OSTEON_RENDER_THREE_FILE === 'string' ? OSTEON_RENDER_THREE_FILE : './render_three.mjs';
 
-// What three.js's WebGLRenderer would ask for with the viewer's options ({ antialias: true }):
-// the context is made here, before three.js has arrived, and handed to it.
+// What three.js's WebGLRenderer would ask for with the viewer's options ({ antialias: true,
+// stencil: true }): the context is made here, before three.js has arrived, and handed to it. The
+// stencil buffer fills the cut's sections (cap.mjs).
 const kContextAttributes = {
   alpha: false,
   depth: true,
-  stencil: false,
+  stencil: true,
   antialias: true,
   premultipliedAlpha: true,
   preserveDrawingBuffer: false,
@@ -134,6 +146,8 @@ function createRendererState(port, local) {
     shownFrame: 0,         // the last frame the page says it has had an animation frame after
     shownTimer: null,
     seqSeen: 0,            // the page's last change (its 'render' seq) that the next frame includes
+    partsMs: undefined,    // how long the 'parts' messages applied since the last frame took
+    seeThroughReady: false, // the view has compiled the see-through parts' programs
   };
 }
 
@@ -294,15 +308,31 @@ function drawFrame(r) {
     return;
   }
   const added = addMeshes(r, meshesForFrame(r));
+  const start = performance.now();
   try {
     r.view.render();
   } catch (e) {
     fail(r, `osteon: drawing failed: ${e?.message ?? e}`);
     return;
   }
+  const renderMs = performance.now() - start;
   r.frame++;
-  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added, levels: r.view.takeLevelChanges() });
+  const { partsMs } = r;
+  r.partsMs = undefined;
+  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added, levels: r.view.takeLevelChanges(), renderMs, partsMs });
   if (r.queue.length) requestDataFrame(r);
+  else if (!r.seeThroughReady && r.drawnComponents >= r.manifest.components.length) {
+    // Every bone is on screen: the see-through parts' programs can compile now.
+    r.seeThroughReady = true;
+    r.view.prepareSeeThrough();
+  }
+}
+
+/// Applies a 'parts' message to the view, timed (the next frame reports it).
+function setParts(r, message) {
+  const start = performance.now();
+  r.view.setParts(message);
+  r.partsMs = (r.partsMs ?? 0) + performance.now() - start;
 }
 
 // Only what changed: setting a canvas's size, even to the same value, clears its drawing buffer.
@@ -311,7 +341,7 @@ function applySettings(r) {
   for (const [type, message] of r.settings) {
     if (type === 'size') view.setSize(message);
     else if (type === 'camera') view.setCamera(message);
-    else if (type === 'parts') view.setParts(message);
+    else if (type === 'parts') setParts(r, message);
     else if (type === 'clip') view.setClip(message);
     else if (type === 'background') view.setBackground(message.color);
   }
@@ -344,7 +374,7 @@ function startView(r) {
   // meanwhile are answered, on what the first frames showed.
   if (r.frame > 0) drawFrame(r);
   else requestFrame(r);
-  for (const { id, ndc } of r.picks.splice(0)) post(r, { type: 'picked', id, part: r.view.pick(ndc) });
+  for (const message of r.picks.splice(0)) answerPick(r, message);
 }
 
 /// Starts three.js's import once the first frames are done: the first one drawn where it can be
@@ -436,10 +466,15 @@ function onShown(r, message) {
   }
 }
 
-/// 'pick': answered now, with -1 when nothing will be drawn, or once the view exists.
+/// Answers a 'pick' with what the view has under it (render_three.mjs pick).
+function answerPick(r, { id, ndc, xray }) {
+  post(r, { type: 'picked', id, ...r.view.pick(ndc, { xray: !!xray }) });
+}
+
+/// 'pick': answered now, with part -1 when nothing will be drawn, or once the view exists.
 function onPick(r, message) {
-  if (r.view) post(r, { type: 'picked', id: message.id, part: r.view.pick(message.ndc) });
-  else if (r.fatal) post(r, { type: 'picked', id: message.id, part: -1 });
+  if (r.view) answerPick(r, message);
+  else if (r.fatal) post(r, { type: 'picked', id: message.id, part: -1, point: null, normal: null });
   else r.picks.push(message);
 }
 

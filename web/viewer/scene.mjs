@@ -23,14 +23,30 @@
 // Hidden instances are packed out of an InstancedMesh (its count drops) rather than scaled to zero,
 // so they cost nothing to draw or to raycast; `slots` maps an instanceId back to the instance.
 //
+// Per-part colours and opacity (setStyle): a colour replaces the manifest's (or the bone colour)
+// in the instance colours and the part's own material. A part with opacity below 1 leaves its
+// batches (packed out as if hidden) and draws each of its instances as Meshes of its own, with
+// transparent materials of the part's (depthWrite off, so what lies behind still shows): three.js
+// sorts transparent objects, not instances, back to front by their bounding spheres' centres, so
+// objects per instance put the see-through bones in depth order, over the opaque ones, which stay
+// batched as before. Each instance has two: its back faces, then its front faces (made in that
+// order: three.js draws objects at the same depth in the order they were made), so a bone's far
+// wall blends in under its near one. (Three.js would draw one double-sided transparent object in
+// those two passes itself, but by changing its material twice a frame, which costs a program
+// look-up per pass; one pass interleaves the walls triangle by triangle and shows bands.) Those
+// meshes share the component's geometry (the level drawn) and are kept once made, so changing a
+// part's opacity again costs a material change.
+//
 // Based on: three.js InstancedMesh and Mesh (matrixWorld.determinant() < 0 -> flipped front face).
 
 import {
   Box3,
   BufferAttribute,
+  BackSide,
   BufferGeometry,
   Color,
   DoubleSide,
+  FrontSide,
   InstancedMesh,
   Matrix4,
   Mesh,
@@ -43,6 +59,13 @@ import {
 const kBoneColor = 0xd9cdb5;
 const kHighlight = new Color(0xff7a2e);
 const kWhite = new Color(1, 1, 1);
+
+/// A colour from three 0..1 values in the manifest's colour space (sRGB), or null where they are
+/// not all finite.
+function srgbColor(values, at) {
+  const [r, g, b] = [values[at], values[at + 1], values[at + 2]];
+  return [r, g, b].every(Number.isFinite) ? new Color().setRGB(r, g, b, SRGBColorSpace) : null;
+}
 
 /// A copy of a triangle index buffer with every triangle's winding reversed (corners 1 and 2 swapped).
 export function flipWinding(indices) {
@@ -90,26 +113,61 @@ export function createPackageScene(manifest, root) {
   instancedMaterial.color.copy(kWhite);
   materials.push(instancedMaterial);
   const boneColor = new Color(kBoneColor);
+  const manifestColors = manifest.parts.map((p) => (p.color ? srgbColor(p.color, 0) : null));
+  let colorOverrides = null;           // Color (or null) per part, from setStyle's colours
+  let opacities = null;                // opacity per part (Float32Array), or null: all opaque
   const partMaterials = new Map();     // part id -> [material, highlighted]
+  const clearMaterials = new Map();    // part id -> its transparent materials [back faces, front faces]
+  const clearOf = new Map();           // instance index -> its transparent Meshes [back, front], once made
 
   function partColor(partId) {
-    const rgb = manifest.parts[partId].color;
-    return rgb ? new Color().setRGB(rgb[0], rgb[1], rgb[2], SRGBColorSpace) : boneColor;
+    return colorOverrides?.[partId] ?? manifestColors[partId] ?? boneColor;
+  }
+
+  /// A copy of the bone material that follows the clipping plane (setClip may have set one).
+  function ownMaterial() {
+    const own = material.clone();
+    own.clippingPlanes = material.clippingPlanes;
+    materials.push(own);
+    return own;
   }
 
   function materialOf(partId, highlight) {
-    if (!manifest.parts[partId].color) return highlight ? highlightMaterial : material;
+    const color = partColor(partId);
+    if (color === boneColor) return highlight ? highlightMaterial : material;
     let pair = partMaterials.get(partId);
     if (!pair) {
-      const own = material.clone();
-      own.color.copy(partColor(partId));
-      const lit = own.clone();
-      lit.color.multiply(kHighlight);
-      pair = [own, lit];
+      pair = [ownMaterial(), ownMaterial()];
       partMaterials.set(partId, pair);
-      materials.push(own, lit);
     }
+    pair[0].color.copy(color);
+    pair[1].color.copy(color).multiply(kHighlight);
     return pair[highlight ? 1 : 0];
+  }
+
+  /// The opacity part `partId` is drawn with, 0..1 (1 without opacities).
+  function partOpacity(partId) {
+    const o = opacities?.[partId];
+    return o === undefined || !(o < 1) ? 1 : Math.max(o, 0);
+  }
+
+  /// Whether part `partId` is drawn see-through (its own transparent meshes, not the batches).
+  const isClear = (partId) => partOpacity(partId) < 1;
+
+  /// The transparent materials of a part, [back faces, front faces], their colour (highlighted
+  /// or not) and opacity set.
+  function clearMaterialsOf(partId) {
+    let pair = clearMaterials.get(partId);
+    if (!pair) {
+      pair = [BackSide, FrontSide].map((side) => Object.assign(ownMaterial(), { transparent: true, depthWrite: false, side }));
+      clearMaterials.set(partId, pair);
+    }
+    for (const own of pair) {
+      own.color.copy(partColor(partId));
+      if (partId === highlighted) own.color.multiply(kHighlight);
+      own.opacity = partOpacity(partId);
+    }
+    return pair;
   }
 
   const batches = [];                  // every draw object: { object, instances, instanced, mirror, component }
@@ -120,26 +178,39 @@ export function createPackageScene(manifest, root) {
   let partVisible = () => true;
   let highlighted = -1;                // part id
   const matrix = new Matrix4();
+  const instanceColor = new Color();   // a highlighted instance's colour, while packing
 
+  /// Whether instance `i` is drawn in its batch: its part is visible and opaque.
   function instanceVisible(i) {
-    return partVisible(manifest.instances[i].part);
+    const { part } = manifest.instances[i];
+    return partVisible(part) && !isClear(part);
   }
 
-  /// Writes an InstancedMesh's visible instances into its first slots and sets its count.
+  /// Writes an InstancedMesh's visible instances into its first slots and sets its count. Only
+  /// what changed is uploaded again: the matrices when the slots moved, the colours when one
+  /// changed (a style change elsewhere costs this batch a pass over its instances, no upload).
   function pack(batch) {
     const { object } = batch;
-    batch.slots = batch.instances.filter(instanceVisible);
-    batch.slots.forEach((i, slot) => {
-      object.setMatrixAt(slot, matrix.fromArray(manifest.instances[i].matrix));
+    const slots = batch.instances.filter(instanceVisible);
+    const moved = !batch.slots || slots.length !== batch.slots.length || slots.some((i, k) => i !== batch.slots[k]);
+    batch.slots = slots;
+    const colors = object.instanceColor.array;
+    let recoloured = false;
+    slots.forEach((i, slot) => {
+      if (moved) object.setMatrixAt(slot, matrix.fromArray(manifest.instances[i].matrix));
       const part = manifest.instances[i].part;
-      const color = partColor(part);
-      object.setColorAt(slot, part === highlighted ? color.clone().multiply(kHighlight) : color);
+      const color = part === highlighted ? instanceColor.copy(partColor(part)).multiply(kHighlight) : partColor(part);
+      if (colors[3 * slot] !== Math.fround(color.r) || colors[3 * slot + 1] !== Math.fround(color.g) || colors[3 * slot + 2] !== Math.fround(color.b)) {
+        object.setColorAt(slot, color);
+        recoloured = true;
+      }
       batchOf.set(i, { batch, slot });
     });
-    object.count = batch.slots.length;
+    object.count = slots.length;
     object.visible = object.count > 0;
+    if (recoloured) object.instanceColor.needsUpdate = true;
+    if (!moved) return;
     object.instanceMatrix.needsUpdate = true;
-    if (object.instanceColor) object.instanceColor.needsUpdate = true;
     object.boundingSphere = null;      // recomputed from the visible instances on the next use
     object.boundingBox = null;
   }
@@ -151,8 +222,53 @@ export function createPackageScene(manifest, root) {
       const i = batch.instances[0];
       batch.object.visible = instanceVisible(i);
       const part = manifest.instances[i].part;
-      batch.object.material = materialOf(part, part === highlighted);
+      if (batch.object.visible) batch.object.material = materialOf(part, part === highlighted);
     }
+  }
+
+  /// The transparent Meshes of instance `i` (its component drawn), [back faces, front faces],
+  /// made on first use with the geometry of the level drawn; a mirrored instance's matrix flips
+  /// its front face (three.js does that per object), so they draw the component's own winding.
+  function clearMeshes(i) {
+    let pair = clearOf.get(i);
+    if (pair) return pair;
+    const instance = manifest.instances[i];
+    const c = drawnOf.get(instance.component);
+    const batch = { instances: [i], instanced: false, mirror: instance.mirror, component: instance.component, transparent: true };
+    pair = clearMaterialsOf(instance.part).map((side, k) => {
+      const object = new Mesh(c.levels.get(c.drawn).geometry, side);
+      object.matrixAutoUpdate = false;
+      object.matrix.fromArray(instance.matrix);
+      object.matrixWorldNeedsUpdate = true;
+      object.name = `${instance.component} (transparent, ${k ? 'front' : 'back'})`;
+      object.userData.batch = batch;
+      return object;
+    });
+    batch.object = pair[1];
+    clearOf.set(i, pair);
+    root.add(...pair);
+    return pair;
+  }
+
+  /// Shows the transparent Meshes of every drawn instance of a visible part with opacity below 1,
+  /// hides the others.
+  function refreshClear() {
+    if (!opacities && clearOf.size === 0) return;
+    manifest.instances.forEach((instance, i) => {
+      const show = loaded.has(instance.component) && partVisible(instance.part) && isClear(instance.part);
+      if (!show && !clearOf.has(i)) return;
+      const pair = clearMeshes(i);
+      const sides = show ? clearMaterialsOf(instance.part) : null;
+      pair.forEach((object, k) => {
+        object.visible = show;
+        if (show) object.material = sides[k];
+      });
+    });
+  }
+
+  function refreshAll() {
+    for (const batch of batches) refresh(batch);
+    refreshClear();
   }
 
   /// A level's geometry, and its winding-flipped twin (positions and normals shared) when
@@ -215,12 +331,14 @@ export function createPackageScene(manifest, root) {
       batch.component = id;
       batch.object.userData.batch = batch;
       batches.push(batch);
-      if (!batch.instanced) batchOf.set(batch.instances[0], { batch, slot: 0 });
+      // Every instance, also one hidden or see-through now (pack sets the slots of the drawn ones).
+      for (const i of batch.instances) batchOf.set(i, { batch, slot: batch.instanced ? -1 : 0 });
       refresh(batch);
       root.add(batch.object);
     }
     loaded.add(id);
     drawnOf.set(id, { batches: made, levels: new Map([[level, entry]]), drawn: level, first: level, mirrored });
+    if (opacities) refreshClear();
     return made.map((b) => b.object);
   }
 
@@ -246,6 +364,9 @@ export function createPackageScene(manifest, root) {
         batch.object.boundingSphere = null;
         batch.object.boundingBox = null;
       }
+    }
+    for (const i of manifest.instancesOf.get(id)) {
+      for (const object of clearOf.get(i) ?? []) object.geometry = entry.geometry;
     }
     c.drawn = level;
     levelChanges.add(id);
@@ -306,13 +427,26 @@ export function createPackageScene(manifest, root) {
   /// Sets which parts are drawn: `visible(partId) -> boolean`.
   function setVisibility(visible) {
     partVisible = visible;
-    for (const batch of batches) refresh(batch);
+    refreshAll();
   }
 
   /// Highlights one part (an id; -1 for none).
   function setHighlight(partId) {
     highlighted = partId;
-    for (const batch of batches) refresh(batch);
+    refreshAll();
+  }
+
+  /// Sets how parts are drawn, in one pass over the draw objects: `visible(partId) -> boolean`,
+  /// the highlighted part (-1 for none), `colors` (3 values 0..1 per part in the manifest's colour
+  /// space, sRGB; null: the manifest's colours; a part whose values are not finite keeps its own)
+  /// and `opacity` (one value 0..1 per part; null: all opaque). A field left undefined keeps
+  /// what was set. O(instances + parts).
+  function setStyle({ visible, highlight, colors, opacity }) {
+    if (visible !== undefined) partVisible = visible;
+    if (highlight !== undefined) highlighted = highlight;
+    if (colors !== undefined) colorOverrides = colors ? manifest.parts.map((_, p) => (3 * p + 2 < colors.length ? srgbColor(colors, 3 * p) : null)) : null;
+    if (opacity !== undefined) opacities = opacity ?? null;
+    refreshAll();
   }
 
   /// The part under a three.js intersection ({ object, instanceId }), or -1.
@@ -323,9 +457,12 @@ export function createPackageScene(manifest, root) {
     return instance === undefined ? -1 : manifest.instances[instance].part;
   }
 
-  /// The objects a raycast should test: the visible ones.
+  /// The objects a raycast should test: the visible ones (batches and transparent meshes; those
+  /// of a see-through instance hit its back faces and its front faces).
   function pickable() {
-    return batches.filter((b) => b.object.visible).map((b) => b.object);
+    const objects = batches.filter((b) => b.object.visible).map((b) => b.object);
+    for (const pair of clearOf.values()) if (pair[0].visible) objects.push(...pair);
+    return objects;
   }
 
   /// How a part is drawn: for each of its instances whether it is loaded, GPU-instanced (and the
@@ -358,11 +495,18 @@ export function createPackageScene(manifest, root) {
       triangles += n * manifest.componentById.get(batch.component).levels[drawnLevel(batch.component)].triangles;
       ++drawCalls;
     }
+    for (const [back] of clearOf.values()) {
+      if (!back.visible) continue;
+      const { component } = back.userData.batch;
+      ++instances;
+      triangles += manifest.componentById.get(component).levels[drawnLevel(component)].triangles;
+      drawCalls += 2;
+    }
     return { instances, triangles, drawCalls, components: loaded.size };
   }
 
   return {
     addComponent, addLevel, showLevel, removeLevel, drawnLevel, levelsHeld, takeLevelChanges, gpuBytes,
-    setVisibility, setHighlight, partOf, pickable, drawInfo, stats, materials, batches,
+    setVisibility, setHighlight, setStyle, partOpacity, partOf, pickable, drawInfo, stats, materials, batches,
   };
 }

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // A view shared by URL: the camera (position, target, up, field of view), the selected part, the
-// hidden or isolated parts, the groups switched off and the clipping plane, written compactly
-// into a URL's hash (docs/FORMAT.md, "Share URL"):
+// hidden or isolated parts, the groups switched off, the clipping plane and the notes pinned to
+// the surface (notes.mjs), written compactly into a URL's hash (docs/FORMAT.md, "Share URL"):
 //
 //   #v=1&cam=px,py,pz,tx,ty,tz,ux,uy,uz,fov&sel=skull&hide=femur_l,femur_r&clip=2,500,0
+//     &notes=x,y,z,skull,Foramen%20magnum;x,y,z,,Another%20note
 //
 // The same text is the <osteon-viewer> element's `view` attribute and its `viewState` property.
 // encodeViewState and parseViewState are pure (the unit tests run them under Node);
@@ -12,11 +13,12 @@
 // message naming it, and the rest of the view still applies: a link never breaks the viewer.
 
 import { findPart } from './manifest.mjs';
+import { kMaxNoteText, kMaxNotes, notesView, setNotes } from './notes.mjs';
 import { applyVisibility, clipControls, select, setClipControls } from './panel.mjs';
 import { setCameraView } from './view.mjs';
 
 export const kShareVersion = 1;
-const kFields = new Set(['v', 'cam', 'sel', 'hide', 'only', 'off', 'clip']);
+const kFields = new Set(['v', 'cam', 'sel', 'hide', 'only', 'off', 'clip', 'notes']);
 
 // Numbers are written as JavaScript's shortest round-trip decimal (String(x)): reading the link
 // back gives the same doubles, so a view restores exactly.
@@ -26,7 +28,9 @@ const names = (list) => list.map((n) => encodeURIComponent(n)).join(',');
 /// The share text of `view` (no leading '#'): { camera: { position, target, up, fov } | null,
 /// selected: part name | null, hidden: [part names] | null, only: [part names] | null (the parts
 /// shown, all others hidden: the compact form of an isolation), groupsOff: [group names],
-/// clip: { axis (0..2), position (0..1000 along the package's box), flip } | null (off) }.
+/// clip: { axis (0..2), position (0..1000 along the package's box), flip } | null (off), notes
+/// (optional): [{ p: [x, y, z], part: part name | null, text }] }. A note is "x,y,z,part,text"
+/// (part and text URL-encoded, so ',' and ';' only separate), the notes joined by ';'.
 export function encodeViewState(view) {
   const fields = [`v=${kShareVersion}`];
   const { camera } = view;
@@ -36,6 +40,9 @@ export function encodeViewState(view) {
   else if (view.hidden?.length) fields.push(`hide=${names(view.hidden)}`);
   if (view.groupsOff?.length) fields.push(`off=${names(view.groupsOff)}`);
   if (view.clip) fields.push(`clip=${view.clip.axis},${view.clip.position},${view.clip.flip ? 1 : 0}`);
+  if (view.notes?.length) {
+    fields.push(`notes=${view.notes.map((n) => [...n.p.map(number), encodeURIComponent(n.part ?? ''), encodeURIComponent(n.text)].join(',')).join(';')}`);
+  }
   return fields.join('&');
 }
 
@@ -74,6 +81,37 @@ function decodeNames(key, text, errors) {
     }
   }
   return out;
+}
+
+/// The notes of a `notes` field: at most kMaxNotes (the rest are cut, with a message), each text
+/// at most kMaxNoteText characters; a note that cannot be read is left out, with a message. A
+/// link is anyone's text: nothing here is ever shown as markup.
+function parseNotes(text, errors) {
+  const items = text.split(';');
+  if (items.length > kMaxNotes) errors.push(`notes: ${items.length} notes, only the first ${kMaxNotes} are read`);
+  const notes = [];
+  items.slice(0, kMaxNotes).forEach((item, i) => {
+    const fields = item.split(',');
+    const p = fields.length === 5 ? parseNumbers(fields.slice(0, 3).join(',')) : null;
+    let part;
+    let body;
+    try {
+      part = decodeURIComponent(fields[3] ?? '');
+      body = decodeURIComponent(fields[4] ?? '');
+    } catch (e) {
+      part = null;
+    }
+    if (!p || part === null) {
+      errors.push(`notes[${i}]: expected x,y,z,part,text (numbers, then URL-encoded names): left out`);
+      return;
+    }
+    if (body.length > kMaxNoteText) {
+      errors.push(`notes[${i}]: a text of ${body.length} characters, cut to ${kMaxNoteText}`);
+      body = body.slice(0, kMaxNoteText);
+    }
+    notes.push({ p, part: part || null, text: body });
+  });
+  return notes;
 }
 
 /// Reads a share text (a URL's hash with or without its '#', or the `view` attribute). Returns
@@ -127,6 +165,7 @@ export function parseViewState(text) {
       view.clip = { axis: v[0], position: v[1], flip: v[2] === 1 };
     }
   }
+  if (fields.has('notes')) view.notes = parseNotes(fields.get('notes'), errors);
   return { view, errors };
 }
 
@@ -140,6 +179,7 @@ export function captureView(state) {
   // Whichever list is shorter: an isolated bone of 235 is one name, not 234.
   const useOnly = hidden.length > 0 && shown.length < hidden.length;
   const clip = clipControls(state);
+  const notes = notesView(state);
   return {
     camera: { position: camera.position.toArray(), target: controls.target.toArray(), up: camera.up.toArray(), fov: camera.fov },
     selected: state.selectedPart >= 0 ? parts[state.selectedPart].name : null,
@@ -147,6 +187,7 @@ export function captureView(state) {
     only: useOnly ? shown.map((p) => p.name) : null,
     groupsOff: [...state.groupOn].filter(([, on]) => !on).map(([group]) => group).sort(),
     clip: clip.on ? { axis: clip.axis, position: clip.position, flip: clip.flip } : null,
+    ...(notes.length ? { notes } : {}),
   };
 }
 
@@ -190,5 +231,7 @@ export function applyView(state, view) {
   }
   const clip = clipControls(state);
   setClipControls(state, view.clip ? { on: true, ...view.clip } : { ...clip, on: false });
+  // A view is whole: one without notes has none.
+  setNotes(state, view.notes ?? [], errors);
   return errors;
 }

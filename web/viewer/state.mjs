@@ -38,8 +38,19 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
     logById: new Map(),      // component id -> its report.fetchLog entry
     hiddenParts: new Set(),
     groupOn: new Map(),      // group -> whether its checkbox is on
+    groupBoxes: new Map(),   // group -> its checkbox in the group list (none with a region tree)
     partRows: [],            // { part, li, checkbox, button } per part, in list order
     listsBuilt: false,
+    tree: null,              // the region tree (region_tree.mjs createTreeModel), once the lists are built
+    language: 'und',         // the language the panel names bones in (a tag of manifest.languages)
+    colorBy: 'part',         // the colour menu: 'part' (the manifest's colours), 'region', 'system'
+    partColors: null,        // Float32Array(3 * parts), sRGB 0..1, drawn instead of the parts' colours; null: theirs
+    partOpacity: null,       // Float32Array(parts), 0..1, as drawn (the chosen opacities, x-ray applied); null: all opaque
+    chosenOpacity: null,     // Float32Array(parts), the opacities set per tree node; null: all 1
+    xray: false,             // every bone but the selected one drawn see-through
+    xrayPick: false,         // picks go through see-through bones to the selected one's (picking.mjs)
+    legend: null,            // the colour legend, [{ color (0..255), label(language) }]; null for 'part'
+    searchIndex: null,       // per part, its names in every language and its groups' names, lower case
     changeSeq: 0,            // the last change sent to the renderer
     drawnSeq: 0,             // the last change a drawn frame includes
     pagePending: false,      // an animation frame is scheduled on the page
@@ -84,12 +95,19 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
       done: false,             // every component loaded or failed (or the manifest failed)
       fetchLog: [],            // per component in fetch order: { id, chunk, file, offset, bytes, fetchStart, fetchEnd, decodedAt, addedAt, error }
       frames: 0,               // frames the renderer has drawn
+      renderMs: null,          // how long the renderer's last render() took on its thread (not the GPU's work)
+      partsMs: null,           // how long it took to apply the last 'parts' message (render_three.mjs setParts)
       framePending: false,     // a change is waiting for its frame
       renderer: null,          // 'worker' (OffscreenCanvas) or 'page'
       timings: {},             // the page's bootstrap: manifestResponse, manifest, threeFetched; the renderer's start: started, context, firstFrames (absent when three.js drew the first frame), three, view, compiled
       unit: null,
       background,
       selected: null,          // the selected part's display name
+      language: 'und',         // the panel's language (a tag of the manifest's languages)
+      colorBy: 'part',         // the colour menu's choice
+      partColors: null,        // state.partColors as an array (3 per part), null for 'part'
+      partOpacity: null,       // state.partOpacity as an array (1 per part), null when all opaque
+      xray: false,
     },
   };
 }

@@ -81,17 +81,23 @@ export function frameDrawn(state, message) {
   // The renderer paces the frames that add components to this page's frames.
   requestAnimationFrame(() => send(state, { type: 'shown', frame: message.frame }));
   state.report.frames = message.frame;
+  if (message.renderMs !== undefined) state.report.renderMs = message.renderMs;
+  if (message.partsMs !== undefined) state.report.partsMs = message.partsMs;
   state.drawnSeq = Math.max(state.drawnSeq, message.seq ?? 0);
   state.report.framePending = state.pagePending || state.changeSeq > state.drawnSeq;
 }
 
-/// Tells the renderer which parts are hidden and which is highlighted.
+/// Tells the renderer which parts are hidden and which is highlighted, and the parts' colours
+/// and opacity (state.partColors, state.partOpacity: copies, transferred; null where unset).
 export function sendParts(state) {
   const { manifest } = state;
   if (!manifest) return;
   const hidden = new Uint8Array(manifest.parts.length);
   for (const part of manifest.parts) hidden[part.id] = partVisible(state, part.id) ? 0 : 1;
-  send(state, { type: 'parts', hidden, highlight: state.selectedPart }, [hidden.buffer]);
+  const colors = state.partColors ? Float32Array.from(state.partColors) : null;
+  const opacity = state.partOpacity ? Float32Array.from(state.partOpacity) : null;
+  const transfer = [hidden.buffer, colors?.buffer, opacity?.buffer].filter(Boolean);
+  send(state, { type: 'parts', hidden, highlight: state.selectedPart, colors, opacity }, transfer);
   requestRender(state);
 }
 
