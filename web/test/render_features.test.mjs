@@ -198,6 +198,20 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
     }
     const miss = await pickAt([0.99, 0.99], false);
     assert.deepEqual([miss.part, miss.point, miss.normal], [-1, null, null]);
+    // Once the skeleton is drawn, the drawn geometries get picking trees in idle time; picks
+    // answer the same through them.
+    let trees = null;
+    for (let k = 0; k < 100 && !(trees?.built > 0 && trees.waiting === 0); ++k) {
+      trees = (await pickAt([0.99, 0.99], false)).trees;
+      if (trees.waiting > 0 || trees.built === 0) await page.waitForTimeout(100);
+    }
+    assert.ok(trees.built > 0 && trees.waiting === 0, JSON.stringify(trees));
+    for (const name of ['skull', 'vertebra_l2', 'femur_l']) {
+      const at = await page.evaluate((n) => window.osteon.screenPositionOf(n), name);
+      const hit = await pickAt(toNdc(at.x, at.y), false);
+      assert.equal(hit.part, partId(name), `${name} through the trees: picked ${m.parts[hit.part]?.display_name}`);
+      assert.ok(inBox(hit.point, partBounds[partId(name)]), `${name} through the trees: ${hit.point} outside its box`);
+    }
 
     // (b) From above: the skull over the atlas. At 0.3 the skull lets the atlas show through.
     const skull = partId('skull');

@@ -34,6 +34,7 @@ import {
 
 import { kBackground, kFovDeg, packageView } from './camera.mjs';
 import { createCapping } from './cap.mjs';
+import { createPickIndex } from './pick_index.mjs';
 import { createPackageScene } from './scene.mjs';
 
 /// Creates the view of `manifest` (manifest.mjs) on `canvas` (an OffscreenCanvas or a canvas
@@ -63,6 +64,7 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
   headlight.target = headlightTarget;
   const clipPlanes = [];  // the planes in use (1 or 2), while the cut is on
   const raycaster = new Raycaster();
+  const pickIndex = createPickIndex();
   const seeThroughStandIns = [];  // prepareSeeThrough's materials, which keep its programs
   const packageScene = createPackageScene(manifest, root);
   const capping = createCapping(scene);  // the cut's sections, filled (cap.mjs)
@@ -125,6 +127,14 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
     /// made see-through does not wait for them. For the render worker to call once the skeleton
     /// is drawn: the compile holds up, on the GPU, the frames queued after it. The stand-in
     /// materials are kept (disposing them would free the programs).
+    /// Queues the drawn objects' geometries for picking trees (pick_index.mjs), built in idle
+    /// slices; for the render worker to call after its frames once the skeleton is drawn.
+    indexForPicking() {
+      pickIndex.add(packageScene.pickable());
+    },
+
+    pickIndexStats: () => pickIndex.stats(),
+
     prepareSeeThrough() {
       const geometry = new BufferGeometry();
       geometry.setAttribute('position', new BufferAttribute(new Float32Array(9), 3));
@@ -209,7 +219,8 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
     /// of the manifest's bounds); `normal` is the hit triangle's, unit length, on the side its
     /// winding makes the front (outward on a consistently wound closed bone: it may face away
     /// from the camera where the pick hits the inside of a cut or open surface).
-    /// O(triangles of the objects whose bounding spheres the ray crosses).
+    /// O(log triangles) per object whose bounding sphere the ray crosses once its picking tree is
+    /// built (pick_index.mjs), O(triangles) before.
     pick(ndc, { xray = false } = {}) {
       scene.updateMatrixWorld();  // objects made since the last frame
       raycaster.setFromCamera(new Vector2(ndc[0], ndc[1]), camera);

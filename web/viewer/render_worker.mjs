@@ -326,6 +326,8 @@ function drawFrame(r) {
     r.seeThroughReady = true;
     r.view.prepareSeeThrough();
   }
+  // Once every bone is on screen, what is drawn gets picking trees in idle time (new levels too).
+  if (r.seeThroughReady) r.view.indexForPicking();
 }
 
 /// Applies a 'parts' message to the view, timed (the next frame reports it).
@@ -468,7 +470,7 @@ function onShown(r, message) {
 
 /// Answers a 'pick' with what the view has under it (render_three.mjs pick).
 function answerPick(r, { id, ndc, xray }) {
-  post(r, { type: 'picked', id, ...r.view.pick(ndc, { xray: !!xray }) });
+  post(r, { type: 'picked', id, ...r.view.pick(ndc, { xray: !!xray }), trees: r.view.pickIndexStats() });
 }
 
 /// 'pick': answered now, with part -1 when nothing will be drawn, or once the view exists.
