@@ -5,13 +5,13 @@
 #   fuzz/run.sh [--merge] [MINUTES] [TARGET...]
 #
 # MINUTES per target (default 10; a fraction is fine: 0.5). TARGET names (fuzz_read_stl, ...,
-# fuzz_manifest, fuzz_seg) pick some; the default is all of them. Builds build/fuzz (clang,
-# -fsanitize=fuzzer) first when it is missing or stale, with OSTEON_FUZZ_JOBS parallel jobs
-# (default 2). Each target grows its own work corpus, build/fuzz/corpus-<target>, from the
-# checked-in seeds in fuzz/corpus/<name>/ (read only); with --merge, what it found is minimised
-# into fuzz/corpus/<name>/ afterwards (-merge=1: only inputs that add coverage are copied).
-# Findings go to build/fuzz/artifacts/<target>-crash-<sha1> (or -timeout-, -oom-, -leak-); the
-# script exits 1 when a run left any. Targets run one at a time, each in one process.
+# fuzz_manifest, fuzz_seg, fuzz_names, fuzz_regions) pick some; the default is all of them.
+# Builds build/fuzz (clang, -fsanitize=fuzzer) first when it is missing or stale, with
+# OSTEON_FUZZ_JOBS parallel jobs (default 2). Each target grows its own work corpus,
+# build/fuzz/corpus-<target>, from the checked-in seeds in fuzz/corpus/<name>/ (read only); with
+# --merge, what it found is minimised into fuzz/corpus/<name>/ afterwards (-merge=1: only inputs
+# that add coverage are copied). Findings go to build/fuzz/artifacts/<target>-crash-<sha1> (or
+# -timeout-, -oom-, -leak-); the script exits 1 when a run left any. One target at a time.
 set -u -o pipefail
 
 cd "$(dirname "$0")/.."
@@ -41,7 +41,8 @@ seconds=$(awk -v m="$minutes" 'BEGIN { s = int(m * 60 + 0.5); print (s < 1 ? 1 :
 
 # target  corpus folder  -max_len. Lengths stay below the corpus's 4 KB a file: a binary STL of
 # 80 triangles, 2 KB of OFF or .seg (a few hundred faces), 4 KB of everything else (a NIfTI
-# header with a few thousand voxels, a manifest of a few parts).
+# header with a few thousand voxels, a manifest of a few parts, a names file or the three
+# ontology tables of a few dozen rows).
 targets=(
   "fuzz_read_stl      stl      4084"
   "fuzz_read_obj      obj      4095"
@@ -53,6 +54,8 @@ targets=(
   "fuzz_decode        ostm     4095"
   "fuzz_manifest      manifest 4095"
   "fuzz_seg           seg      2048"
+  "fuzz_names         names    4095"
+  "fuzz_regions       regions  4095"
   "fuzz_volume_nii    nii      4095"
   "fuzz_volume_niigz  niigz    4095"
   "fuzz_volume_nrrd   nrrd     4095"

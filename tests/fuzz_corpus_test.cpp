@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "../fuzz/manifest_fuzz_check.hpp"
+#include "../fuzz/names_fuzz_check.hpp"
+#include "../fuzz/regions_fuzz_check.hpp"
 #include "../fuzz/seg_fuzz_check.hpp"
 #include "../fuzz/volume_fuzz_input.hpp"
 #include "fixtures.hpp"
@@ -19,8 +21,9 @@
 // then welds and diagnoses what it returns, exactly as fuzz/read_fuzzer.cpp does; the label-volume
 // corpus (nii, niigz, nrrd, nhdr) goes through read_volume as fuzz/volume_fuzzer.cpp does, the
 // manifest corpus through parse_manifest and write_manifest as fuzz/manifest_fuzzer.cpp does, the
-// .seg corpus through parse_seg and the evaluator as fuzz/seg_fuzzer.cpp does. Under ASan+UBSan
-// this keeps every past fuzzer finding fixed.
+// .seg corpus through parse_seg and the evaluator as fuzz/seg_fuzzer.cpp does, the names files
+// and ontology tables through parse_names and place_by_fma_tables as fuzz/names_fuzzer.cpp and
+// fuzz/regions_fuzzer.cpp do. Under ASan+UBSan this keeps every past fuzzer finding fixed.
 
 namespace osteon {
 namespace {
@@ -152,7 +155,7 @@ TEST(VolumeFuzzCorpusFiles, StaySmall) {
   }
 }
 
-// ---- the manifest and .seg readers (fuzz/manifest_fuzzer.cpp, fuzz/seg_fuzzer.cpp) -----------
+// ---- the manifest, .seg, names and ontology-table readers (fuzz/<name>_fuzzer.cpp) -----------
 
 /// Replays corpus/<format>/ through `one` (the fuzzer's own checks): no input may break a promise,
 /// and some of the seeds (valid files) must parse.
@@ -181,6 +184,15 @@ TEST(ManifestFuzzCorpus, EveryInputParsesOrFailsCleanly) {
 
 TEST(SegFuzzCorpus, EveryInputParsesOrFailsCleanly) {
   replay_text_corpus("seg", &fuzz::seg_fuzz_one);
+}
+
+TEST(NamesFuzzCorpus, EveryInputParsesOrFailsCleanly) {
+  replay_text_corpus("names", &fuzz::names_fuzz_one);
+}
+
+// The source ("regions/<file>") is the tables' folder in the messages.
+TEST(RegionsFuzzCorpus, EveryInputPlacesOrFailsCleanly) {
+  replay_text_corpus("regions", &fuzz::regions_fuzz_one);
 }
 
 }  // namespace

@@ -269,6 +269,11 @@ size_t column(const std::vector<std::string>& header, std::initializer_list<cons
 
 Result<Names> read_names(const std::string& path) {
   OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_file(path));
+  return parse_names(bytes, path);
+}
+
+Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& source) {
+  const std::string& path = source;  // messages open with it
   const std::string text(bytes.begin(), bytes.end());
   Names out;
   std::map<std::string, DisplayName>& names = out.parts;

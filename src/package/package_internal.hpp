@@ -64,6 +64,12 @@ struct Names {
 /// group name or a path deeper than kMaxGroupDepth.
 Result<Names> read_names(const std::string& path);
 
+/// read_names on a names file's bytes, already in memory: the same forms and checks, with
+/// `source` (the file's name) starting every error message. Errors: kInvalidData as read_names.
+/// A part's path has at most kMaxGroupDepth groups, each named and none twice; the languages are
+/// unique. O(bytes + groups * log(groups)).
+Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& source);
+
 /// Where a part sits in the skeleton: its groups, outermost first (empty: not placed), and its
 /// system.
 struct Placement {
@@ -115,6 +121,17 @@ Placement place_by_words(const std::string& name);
 /// read_file's for a missing table; kInvalidData naming the file and line for a malformed one.
 Result<std::vector<Placement>> place_by_fma(const std::string& dir,
                                             const std::vector<std::string>& stems);
+
+/// place_by_fma on the three tables' texts, already in memory (conventional_part_of.txt,
+/// isa_element_parts.txt, parts_list_e.txt, in that order); error messages name each table as
+/// the file of that name in `dir` ("DIR/parts_list_e.txt: line 3: ..."). Errors: kInvalidData for
+/// an empty table or a line of too few tab-separated fields. Every placement's path is empty or
+/// region_path's. O(table bytes + stems * graph size).
+Result<std::vector<Placement>> place_by_fma_tables(const std::string& part_of,
+                                                   const std::string& isa,
+                                                   const std::string& names_list,
+                                                   const std::string& dir,
+                                                   const std::vector<std::string>& stems);
 
 /// Fills the path and system of every part the names file leaves unplaced, from `source`:
 /// "names" (place_by_words) or "fma:DIR" (place_by_fma); empty: nothing. kInvalidArgument for

@@ -40,21 +40,20 @@ struct Ontology {
   }
 };
 
-/// Reads one of the tables: tab-separated lines of at least `fields` fields, the first a header.
-/// Calls `row` with each line's fields.
+/// Parses one of the tables (`text`, the contents of the file `path`): tab-separated lines of at
+/// least `fields` fields, the first a header. Calls `row` with each line's fields.
 template <typename Row>
-Status read_table(const std::string& path, size_t fields, Row row) {
-  OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_file(path));
+Status parse_table(const std::string& text, const std::string& path, size_t fields, Row row) {
   size_t start = 0;
   size_t line = 0;
   std::vector<std::string> f;
-  while (start < bytes.size()) {
+  while (start < text.size()) {
     size_t end = start;
-    while (end < bytes.size() && bytes[end] != '\n') ++end;
+    while (end < text.size() && text[end] != '\n') ++end;
     ++line;
     f.assign(1, std::string());
     for (size_t i = start; i < end; ++i) {
-      const char c = char(bytes[i]);
+      const char c = text[i];
       if (c == '\t') {
         f.emplace_back();
       } else if (c != '\r' && c != '"') {
@@ -126,27 +125,42 @@ uint32_t nearest(const Ontology& o, const std::vector<uint32_t>& dist,
 
 Result<std::vector<Placement>> place_by_fma(const std::string& dir,
                                             const std::vector<std::string>& stems) {
+  const std::string folder = dir.empty() || dir.back() == '/' ? dir : dir + "/";
+  std::string tables[3];
+  const char* const files[3] = {"conventional_part_of.txt", "isa_element_parts.txt",
+                                "parts_list_e.txt"};
+  for (int k = 0; k < 3; ++k) {
+    OSTEON_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_file(folder + files[k]));
+    tables[k].assign(bytes.begin(), bytes.end());
+  }
+  return place_by_fma_tables(tables[0], tables[1], tables[2], dir, stems);
+}
+
+Result<std::vector<Placement>> place_by_fma_tables(const std::string& part_of,
+                                                   const std::string& isa,
+                                                   const std::string& names_list,
+                                                   const std::string& dir,
+                                                   const std::vector<std::string>& stems) {
   Ontology o;
   const std::string folder = dir.empty() || dir.back() == '/' ? dir : dir + "/";
-  OSTEON_RETURN_IF_ERROR(read_table(folder + "conventional_part_of.txt", 4,
-                                    [&](const std::vector<std::string>& f) {
-                                      const uint32_t parent = o.node(f[0]);
-                                      const uint32_t child = o.node(f[2]);
-                                      o.name(parent, f[1]);
-                                      o.name(child, f[3]);
-                                      if (parent != child) o.parents[child].push_back(parent);
-                                    }));
-  OSTEON_RETURN_IF_ERROR(read_table(folder + "isa_element_parts.txt", 3,
-                                    [&](const std::vector<std::string>& f) {
-                                      const uint32_t concept_id = o.node(f[0]);
-                                      const uint32_t element = o.node(f[2]);
-                                      o.name(concept_id, f[1]);
-                                      if (concept_id != element) o.parents[element].push_back(concept_id);
-                                    }));
-  OSTEON_RETURN_IF_ERROR(read_table(folder + "parts_list_e.txt", 2,
-                                    [&](const std::vector<std::string>& f) {
-                                      o.name(o.node(f[0]), f[1]);
-                                    }));
+  OSTEON_RETURN_IF_ERROR(parse_table(part_of, folder + "conventional_part_of.txt", 4,
+                                     [&](const std::vector<std::string>& f) {
+                                       const uint32_t parent = o.node(f[0]);
+                                       const uint32_t child = o.node(f[2]);
+                                       o.name(parent, f[1]);
+                                       o.name(child, f[3]);
+                                       if (parent != child) o.parents[child].push_back(parent);
+                                     }));
+  OSTEON_RETURN_IF_ERROR(
+      parse_table(isa, folder + "isa_element_parts.txt", 3, [&](const std::vector<std::string>& f) {
+        const uint32_t concept_id = o.node(f[0]);
+        const uint32_t element = o.node(f[2]);
+        o.name(concept_id, f[1]);
+        if (concept_id != element) o.parents[element].push_back(concept_id);
+      }));
+  OSTEON_RETURN_IF_ERROR(
+      parse_table(names_list, folder + "parts_list_e.txt", 2,
+                  [&](const std::vector<std::string>& f) { o.name(o.node(f[0]), f[1]); }));
   for (uint32_t n = 0; n < o.names.size(); ++n) {
     if (!o.names[n].empty()) o.by_name[o.names[n]].push_back(n);
   }
