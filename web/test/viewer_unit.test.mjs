@@ -1085,7 +1085,11 @@ describe('share state (share.mjs)', () => {
         hidden: k % 2 ? ['femur_l', 'a,b', 'ä/β=γ#', 'x&y'] : null,
         only: k % 2 ? null : ['skull', 'rib #1'],
         groupsOff: k % 4 ? ['left leg', 'arm,upper'] : [],
-        clip: k % 5 ? { axis: k % 3, position: k % 1001, flip: k % 2 === 0 } : null,
+        clip: k % 5 ? {
+          axis: k % 3, position: k % 1001, flip: k % 2 === 0,
+          second: k % 7 ? { axis: (k + 1) % 3, position: (7 * k) % 1001, flip: k % 3 === 0 } : null,
+          cap: k % 4 !== 1,
+        } : null,
       };
       const text = encodeViewState(view);
       assert.doesNotMatch(text, /[ #"]/, 'URL-safe');
@@ -1110,6 +1114,13 @@ describe('share state (share.mjs)', () => {
     assert.equal(parseViewState('sel=skull').view, null);
     assert.deepEqual(parseViewState(''), { view: null, errors: [] });
     assert.deepEqual(parseViewState('#'), { view: null, errors: [] });
+    // The second plane and the cap setting need the first plane.
+    const second = parseViewState('v=1&clip2=0,500,1&cap=0');
+    assert.equal(second.view.clip, null);
+    assert.match(second.errors.join('; '), /clip2: a second plane without "clip" is ignored/);
+    assert.match(parseViewState('v=1&clip=0,1,0&cap=2').errors.join('; '), /cap "2": expected 0/);
+    assert.deepEqual(parseViewState('v=1&clip=0,1,0&clip2=2,3,1&cap=0').view.clip,
+      { axis: 0, position: 1, flip: false, second: { axis: 2, position: 3, flip: true }, cap: false });
     for (const clip of ['1,1001,0', '1,-1,0', '1,2.5,0', '1,2,2', '1,2', '']) {
       assert.equal(parseViewState(`v=1&clip=${clip}`).view.clip, null, clip);
     }

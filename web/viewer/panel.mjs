@@ -613,22 +613,38 @@ export function updateClip(state) {
 }
 
 /// The clipping plane's controls as a value: { on, axis (0..2), position (the slider's 0..1000
-/// along the package's box), flip }.
+/// along the package's box), flip, cap (the sections filled), second: the second plane's { on,
+/// axis, position, flip } }.
 export function clipControls(state) {
   return {
     on: $(state, 'clip-on').checked,
     axis: Number($(state, 'clip-axis').value),
     position: Number($(state, 'clip-pos').value),
     flip: $(state, 'clip-flip').checked,
+    cap: $(state, 'clip-cap').checked,
+    second: {
+      on: $(state, 'clip2-on').checked,
+      axis: Number($(state, 'clip2-axis').value),
+      position: Number($(state, 'clip2-at').value),
+      flip: $(state, 'clip2-flip').checked,
+    },
   };
 }
 
-/// Sets the clipping plane's controls (clipControls' value) and sends the plane.
-export function setClipControls(state, { on, axis, position, flip }) {
+/// Sets the clipping plane's controls (clipControls' value; cap and second optional, kept when
+/// absent) and sends the planes.
+export function setClipControls(state, { on, axis, position, flip, cap, second }) {
   $(state, 'clip-on').checked = on;
   $(state, 'clip-axis').value = String(axis);
   $(state, 'clip-pos').value = String(position);
   $(state, 'clip-flip').checked = flip;
+  if (cap !== undefined) $(state, 'clip-cap').checked = cap;
+  if (second) {
+    $(state, 'clip2-on').checked = second.on;
+    $(state, 'clip2-axis').value = String(second.axis);
+    $(state, 'clip2-at').value = String(second.position);
+    $(state, 'clip2-flip').checked = second.flip;
+  }
   updateClip(state);
 }
 

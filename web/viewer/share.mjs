@@ -18,7 +18,7 @@ import { applyVisibility, clipControls, select, setClipControls } from './panel.
 import { setCameraView } from './view.mjs';
 
 export const kShareVersion = 1;
-const kFields = new Set(['v', 'cam', 'sel', 'hide', 'only', 'off', 'clip', 'notes']);
+const kFields = new Set(['v', 'cam', 'sel', 'hide', 'only', 'off', 'clip', 'clip2', 'cap', 'notes']);
 
 // Numbers are written as JavaScript's shortest round-trip decimal (String(x)): reading the link
 // back gives the same doubles, so a view restores exactly.
@@ -28,7 +28,8 @@ const names = (list) => list.map((n) => encodeURIComponent(n)).join(',');
 /// The share text of `view` (no leading '#'): { camera: { position, target, up, fov } | null,
 /// selected: part name | null, hidden: [part names] | null, only: [part names] | null (the parts
 /// shown, all others hidden: the compact form of an isolation), groupsOff: [group names],
-/// clip: { axis (0..2), position (0..1000 along the package's box), flip } | null (off), notes
+/// clip: { axis (0..2), position (0..1000 along the package's box), flip, second (the second
+/// plane, the same fields, or null), cap (false: the sections left open) } | null (off), notes
 /// (optional): [{ p: [x, y, z], part: part name | null, text }] }. A note is "x,y,z,part,text"
 /// (part and text URL-encoded, so ',' and ';' only separate), the notes joined by ';'.
 export function encodeViewState(view) {
@@ -39,7 +40,10 @@ export function encodeViewState(view) {
   if (view.only) fields.push(`only=${names(view.only)}`);
   else if (view.hidden?.length) fields.push(`hide=${names(view.hidden)}`);
   if (view.groupsOff?.length) fields.push(`off=${names(view.groupsOff)}`);
-  if (view.clip) fields.push(`clip=${view.clip.axis},${view.clip.position},${view.clip.flip ? 1 : 0}`);
+  const plane = (c) => `${c.axis},${c.position},${c.flip ? 1 : 0}`;
+  if (view.clip) fields.push(`clip=${plane(view.clip)}`);
+  if (view.clip?.second) fields.push(`clip2=${plane(view.clip.second)}`);
+  if (view.clip && view.clip.cap === false) fields.push('cap=0');
   if (view.notes?.length) {
     fields.push(`notes=${view.notes.map((n) => [...n.p.map(number), encodeURIComponent(n.part ?? ''), encodeURIComponent(n.text)].join(',')).join(';')}`);
   }
@@ -157,13 +161,27 @@ export function parseViewState(text) {
     view.hidden = null;
   }
   if (fields.has('off')) view.groupsOff = decodeNames('off', fields.get('off'), errors);
-  if (fields.has('clip')) {
-    const v = parseNumbers(fields.get('clip'));
+  const parsePlane = (key) => {
+    const v = parseNumbers(fields.get(key));
     if (!v || v.length !== 3 || ![0, 1, 2].includes(v[0]) || !Number.isInteger(v[1]) || v[1] < 0 || v[1] > 1000 || ![0, 1].includes(v[2])) {
-      errors.push(`clip "${fields.get('clip')}": expected axis (0, 1 or 2), position (0 to 1000) and flip (0 or 1)`);
-    } else {
-      view.clip = { axis: v[0], position: v[1], flip: v[2] === 1 };
+      errors.push(`${key} "${fields.get(key)}": expected axis (0, 1 or 2), position (0 to 1000) and flip (0 or 1)`);
+      return null;
     }
+    return { axis: v[0], position: v[1], flip: v[2] === 1 };
+  };
+  if (fields.has('clip')) {
+    const plane = parsePlane('clip');
+    if (plane) view.clip = { ...plane, second: null, cap: true };
+  }
+  if (fields.has('clip2')) {
+    const second = parsePlane('clip2');
+    if (second && !view.clip) errors.push('clip2: a second plane without "clip" is ignored');
+    else if (second) view.clip.second = second;
+  }
+  if (fields.has('cap')) {
+    const cap = fields.get('cap');
+    if (cap !== '0' && cap !== '1') errors.push(`cap "${cap}": expected 0 (sections open) or 1 (filled)`);
+    else if (view.clip) view.clip.cap = cap === '1';
   }
   if (fields.has('notes')) view.notes = parseNotes(fields.get('notes'), errors);
   return { view, errors };
@@ -186,7 +204,7 @@ export function captureView(state) {
     hidden: useOnly ? null : hidden.map((p) => p.name),
     only: useOnly ? shown.map((p) => p.name) : null,
     groupsOff: [...state.groupOn].filter(([, on]) => !on).map(([group]) => group).sort(),
-    clip: clip.on ? { axis: clip.axis, position: clip.position, flip: clip.flip } : null,
+    clip: clip.on ? { axis: clip.axis, position: clip.position, flip: clip.flip, second: clip.second.on ? { axis: clip.second.axis, position: clip.second.position, flip: clip.second.flip } : null, cap: clip.cap } : null,
     ...(notes.length ? { notes } : {}),
   };
 }
@@ -230,7 +248,9 @@ export function applyView(state, view) {
     select(state, -1);
   }
   const clip = clipControls(state);
-  setClipControls(state, view.clip ? { on: true, ...view.clip } : { ...clip, on: false });
+  setClipControls(state, view.clip
+    ? { on: true, ...view.clip, cap: view.clip.cap ?? true, second: view.clip.second ? { on: true, ...view.clip.second } : { ...clip.second, on: false } }
+    : { ...clip, on: false });
   // A view is whole: one without notes has none.
   setNotes(state, view.notes ?? [], errors);
   return errors;
