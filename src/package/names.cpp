@@ -277,6 +277,8 @@ Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& 
   const std::string text(bytes.begin(), bytes.end());
   Names out;
   std::map<std::string, DisplayName>& names = out.parts;
+  // The file's own order ranks its paths' groups (after derived regions: DisplayName::rank).
+  int32_t order = kNamesFileRank;
   bool listed = false;
   size_t first = text.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && (text[first] == '[' || text[first] == '{')) {
@@ -320,6 +322,7 @@ Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& 
         OSTEON_RETURN_IF_ERROR(json_path(entry, path, file, &name));
         OSTEON_RETURN_IF_ERROR(json_names(entry, path, file, &name.names));
         name.system = text_of(entry, {"system"});
+        name.rank = order++;
         names[stem_of(file)] = std::move(name);
       }
     } else {
@@ -333,6 +336,7 @@ Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& 
           OSTEON_RETURN_IF_ERROR(json_path(*it, path, it.key(), &name));
           OSTEON_RETURN_IF_ERROR(json_names(*it, path, it.key(), &name.names));
           name.system = text_of(*it, {"system"});
+          name.rank = order++;
           names[stem_of(it.key())] = std::move(name);
         }
       }
@@ -421,6 +425,7 @@ Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& 
     for (const auto& [c, tag] : c_names) {
       if (!field(c).empty()) name.names[tag] = field(c);
     }
+    name.rank = order++;
     names[stem_of(f[0])] = std::move(name);
   }
   OSTEON_RETURN_IF_ERROR(check_names(path, listed, &out));

@@ -601,7 +601,7 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     return parent;
   };
   // Derived paths first, in their rank order, so that the tree reads head to toe; the names
-  // file's own paths follow in the parts' order.
+  // file's own paths follow in the file's order.
   std::vector<const detail::DisplayName*> ranked;
   for (const Mesh& mesh : parts) {
     auto named = names.find(detail::stem_of(mesh.name));

@@ -31,6 +31,9 @@ struct GroupName {
   std::map<std::string, std::string> names;  ///< language tag -> name
 };
 
+/// The rank of a names file's first entry: above every region_rank.
+inline constexpr int32_t kNamesFileRank = 1 << 24;
+
 /// A part's display name and group, from a names file.
 struct DisplayName {
   std::string name;
@@ -40,8 +43,9 @@ struct DisplayName {
   std::vector<GroupName> path;               ///< its groups, outermost first; empty: none
   std::map<std::string, std::string> names;  ///< language tag -> the part's name in it
   std::string system;                        ///< "Skeletal system", "Cartilage"; empty: none
-  /// Where a derived path's groups go among their siblings (the region table's head-to-toe
-  /// order); a names file's own paths keep the order the parts give (INT32_MAX).
+  /// Where the path's groups go among their siblings: derived paths by the region table's
+  /// head-to-toe order (region_rank), a names file's own after them in the file's order
+  /// (kNamesFileRank + the entry's index).
   int32_t rank = INT32_MAX;
 };
 
