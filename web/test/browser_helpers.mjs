@@ -11,8 +11,10 @@
 //   OSTEON_CHROMIUM     the browser (default: /usr/bin/chromium, Debian's; never downloaded)
 
 import { execFileSync, spawn } from 'node:child_process';
-import { cpSync, existsSync, mkdirSync, readdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { cpSync, existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import path from 'node:path';
+import { after, before } from 'node:test';
 import { fileURLToPath } from 'node:url';
 import { gzipSync } from 'node:zlib';
 
@@ -107,6 +109,33 @@ export function launchBrowser() {
   });
 }
 
+/// The phantom packed and served for a describe block: registers a before() hook that writes
+/// `osteon phantom` (with `phantomArgs`) into a new temporary folder named from `prefix`, runs
+/// `beforePack(work)` (e.g. to write a names file), packs it into site/p with `packArgs` (or
+/// `packArgs(work)`: options naming files there), runs
+/// `afterPack(work, m)` (e.g. to add more to the site), serves site and launches the browser, and an
+/// after() hook that closes them and removes the folder. Returns { work, server, browser, m } (m:
+/// the manifest), filled in by the before() hook.
+export function phantomSite(prefix, packArgs = [], { phantomArgs = [], beforePack = () => {}, afterPack = () => {} } = {}) {
+  const site = { work: null, server: null, browser: null, m: null };
+  before(async () => {
+    site.work = mkdtempSync(path.join(tmpdir(), prefix));
+    osteon('phantom', '-o', path.join(site.work, 'phantom'), ...phantomArgs);
+    await beforePack(site.work);
+    site.m = pack([path.join(site.work, 'phantom')], path.join(site.work, 'site', 'p'),
+      typeof packArgs === 'function' ? packArgs(site.work) : packArgs);
+    await afterPack(site.work, site.m);
+    site.server = await serve(path.join(site.work, 'site'));
+    site.browser = await launchBrowser();
+  });
+  after(async () => {
+    await site.browser?.close();
+    await site.server?.close();
+    if (site.work) rmSync(site.work, { recursive: true, force: true });
+  });
+  return site;
+}
+
 /// Opens `url` and collects the page's console errors and uncaught exceptions. `beforeLoad(page)`
 /// runs first (e.g. to throttle the network).
 export async function openViewer(context, url, beforeLoad = async () => {}) {
@@ -172,57 +201,16 @@ export async function shootCanvas(page, name) {
   return { png, box };
 }
 
-/// Counts the pixels of `png` (a screenshot of a region at client `origin`) inside `rect` (client
-/// coordinates, clipped to the image) whose colour differs from `background` ('#rrggbb') by more
-/// than 24 in some channel. The PNG is decoded by the browser itself (a blank page's canvas), so
-/// the test needs no image library. Returns { pixels, differing, fraction, luminance } (the mean
-/// luminance, 0..255, of the differing pixels: how brightly lit what is drawn there is). `rect`
-/// may be an array of rectangles: then an array of those, from one decode of the image.
-export async function countForeground(context, png, origin, rect, background) {
-  const page = await context.newPage();
+/// Decodes `pngs` (PNG Buffers) in the browser itself (a blank page's canvas, so the tests need no
+/// image library) into { width, height, data } (the RGBA Uint8ClampedArray) each, and returns what
+/// `fn(images, arg)` returns, run in the page. `fn` travels as its source text: it must use only its
+/// arguments. `target` is a browser context (a blank page is opened and closed) or a page to decode on.
+export async function withPixels(target, pngs, fn, arg) {
+  const given = typeof target.evaluate === 'function';
+  const page = given ? target : await target.newPage();
   try {
-    return await page.evaluate(async ({ data, origin, rects, background }) => {
-      const image = new Image();
-      image.src = `data:image/png;base64,${data}`;
-      await image.decode();
-      const c = document.createElement('canvas');
-      c.width = image.width;
-      c.height = image.height;
-      const g = c.getContext('2d');
-      g.drawImage(image, 0, 0);
-      const count = (rect) => {
-        const x0 = Math.max(0, Math.floor(rect.left - origin.x));
-        const y0 = Math.max(0, Math.floor(rect.top - origin.y));
-        const x1 = Math.min(image.width, Math.ceil(rect.right - origin.x));
-        const y1 = Math.min(image.height, Math.ceil(rect.bottom - origin.y));
-        if (x1 <= x0 || y1 <= y0) return { pixels: 0, differing: 0, fraction: 0, luminance: 0 };
-        const px = g.getImageData(x0, y0, x1 - x0, y1 - y0).data;
-        const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
-        let differing = 0;
-        let light = 0;
-        for (let i = 0; i < px.length; i += 4) {
-          if (Math.abs(px[i] - bg[0]) > 24 || Math.abs(px[i + 1] - bg[1]) > 24 || Math.abs(px[i + 2] - bg[2]) > 24) {
-            ++differing;
-            light += 0.2126 * px[i] + 0.7152 * px[i + 1] + 0.0722 * px[i + 2];
-          }
-        }
-        const pixels = px.length / 4;
-        return { pixels, differing, fraction: differing / pixels, luminance: differing ? light / differing : 0 };
-      };
-      return Array.isArray(rects) ? rects.map(count) : count(rects);
-    }, { data: png.toString('base64'), origin, rects: rect, background });
-  } finally {
-    await page.close();
-  }
-}
-
-/// Counts the pixels where two screenshots of the same size (PNGs) differ by more than `tolerance`
-/// in some channel, decoded by the browser as countForeground does. Returns { pixels, differing }.
-export async function countDiffering(context, pngA, pngB, tolerance = 24) {
-  const page = await context.newPage();
-  try {
-    return await page.evaluate(async ({ a, b, tolerance }) => {
-      const pixelsOf = async (data) => {
+    return await page.evaluate(async ({ encoded, source, arg }) => {
+      const decode = async (data) => {
         const image = new Image();
         image.src = `data:image/png;base64,${data}`;
         await image.decode();
@@ -231,19 +219,62 @@ export async function countDiffering(context, pngA, pngB, tolerance = 24) {
         c.height = image.height;
         const g = c.getContext('2d');
         g.drawImage(image, 0, 0);
-        return g.getImageData(0, 0, image.width, image.height).data;
+        return { width: image.width, height: image.height, data: g.getImageData(0, 0, image.width, image.height).data };
       };
-      const [pa, pb] = await Promise.all([pixelsOf(a), pixelsOf(b)]);
-      if (pa.length !== pb.length) throw new Error(`the screenshots differ in size (${pa.length / 4} and ${pb.length / 4} pixels)`);
-      let differing = 0;
-      for (let i = 0; i < pa.length; i += 4) {
-        if (Math.abs(pa[i] - pb[i]) > tolerance || Math.abs(pa[i + 1] - pb[i + 1]) > tolerance || Math.abs(pa[i + 2] - pb[i + 2]) > tolerance) ++differing;
-      }
-      return { pixels: pa.length / 4, differing };
-    }, { a: pngA.toString('base64'), b: pngB.toString('base64'), tolerance });
+      const images = await Promise.all(encoded.map(decode));
+      return new Function(`return (${source});`)()(images, arg);
+    }, { encoded: pngs.map((png) => png.toString('base64')), source: fn.toString(), arg });
   } finally {
-    await page.close();
+    if (!given) await page.close();
   }
+}
+
+/// Counts the pixels of `png` (a screenshot of a region at client `origin`) inside `rect` (client
+/// coordinates, clipped to the image) whose colour differs from `background` ('#rrggbb') by more
+/// than 24 in some channel, decoded by withPixels. Returns { pixels, differing, fraction, luminance }
+/// (the mean luminance, 0..255, of the differing pixels: how brightly lit what is drawn there is).
+/// `rect` may be an array of rectangles: then an array of those, from one decode of the image.
+export function countForeground(context, png, origin, rect, background) {
+  return withPixels(context, [png], ([image], { origin, rects, background }) => {
+    const count = (rect) => {
+      const x0 = Math.max(0, Math.floor(rect.left - origin.x));
+      const y0 = Math.max(0, Math.floor(rect.top - origin.y));
+      const x1 = Math.min(image.width, Math.ceil(rect.right - origin.x));
+      const y1 = Math.min(image.height, Math.ceil(rect.bottom - origin.y));
+      if (x1 <= x0 || y1 <= y0) return { pixels: 0, differing: 0, fraction: 0, luminance: 0 };
+      const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
+      const px = image.data;
+      let differing = 0;
+      let light = 0;
+      for (let y = y0; y < y1; ++y) {
+        for (let x = x0; x < x1; ++x) {
+          const i = 4 * (y * image.width + x);
+          if (Math.abs(px[i] - bg[0]) > 24 || Math.abs(px[i + 1] - bg[1]) > 24 || Math.abs(px[i + 2] - bg[2]) > 24) {
+            ++differing;
+            light += 0.2126 * px[i] + 0.7152 * px[i + 1] + 0.0722 * px[i + 2];
+          }
+        }
+      }
+      const pixels = (x1 - x0) * (y1 - y0);
+      return { pixels, differing, fraction: differing / pixels, luminance: differing ? light / differing : 0 };
+    };
+    return Array.isArray(rects) ? rects.map(count) : count(rects);
+  }, { origin, rects: rect, background });
+}
+
+/// Counts the pixels where two screenshots of the same size (PNGs) differ by more than `tolerance`
+/// in some channel, decoded by withPixels. Returns { pixels, differing }.
+export function countDiffering(context, pngA, pngB, tolerance = 24) {
+  return withPixels(context, [pngA, pngB], ([a, b], tolerance) => {
+    const pa = a.data;
+    const pb = b.data;
+    if (pa.length !== pb.length) throw new Error(`the screenshots differ in size (${pa.length / 4} and ${pb.length / 4} pixels)`);
+    let differing = 0;
+    for (let i = 0; i < pa.length; i += 4) {
+      if (Math.abs(pa[i] - pb[i]) > tolerance || Math.abs(pa[i + 1] - pb[i + 1]) > tolerance || Math.abs(pa[i + 2] - pb[i + 2]) > tolerance) ++differing;
+    }
+    return { pixels: pa.length / 4, differing };
+  }, tolerance);
 }
 
 /// Rewrites a package packed with --no-lod as version 2 (the format before levels of detail):

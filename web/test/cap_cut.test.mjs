@@ -11,13 +11,10 @@
 // Environment: see browser_helpers.mjs.
 
 import assert from 'node:assert/strict';
-import { mkdtempSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
-import path from 'node:path';
-import { after, before, describe, test } from 'node:test';
+import { describe, test } from 'node:test';
 
 import {
-  countDiffering, countForeground, launchBrowser, missingPrerequisite, openViewer, osteon, pack, serve, settle, shootCanvas, waitLoaded, waitRefined,
+  countDiffering, countForeground, missingPrerequisite, openViewer, phantomSite, settle, shootCanvas, waitLoaded, waitRefined, withPixels,
 } from './browser_helpers.mjs';
 
 const skip = missingPrerequisite();
@@ -26,35 +23,29 @@ const kView = { viewport: { width: 900, height: 700 }, deviceScaleFactor: 1 };
 
 /// The colours of `png` (a screenshot of a region at client `origin`) in the square of side
 /// 2 * `half` + 1 pixels around each of `points` (client coordinates): per point { mean: [r, g, b],
-/// spread (the largest channel's max - min) }, decoded by the browser as countForeground does, on
-/// `lab` (a blank page).
+/// spread (the largest channel's max - min) }, decoded by withPixels on `lab` (a blank page). Pixels
+/// of the square outside the image count as transparent black, as a canvas reads them.
 function patchColors(lab, png, origin, points, half = 2) {
-  return lab.evaluate(async ({ data, origin, points, half }) => {
-    const image = new Image();
-    image.src = `data:image/png;base64,${data}`;
-    await image.decode();
-    const c = document.createElement('canvas');
-    c.width = image.width;
-    c.height = image.height;
-    const g = c.getContext('2d');
-    g.drawImage(image, 0, 0);
-    return points.map((p) => {
-      const x = Math.round(p.x - origin.x) - half;
-      const y = Math.round(p.y - origin.y) - half;
-      const px = g.getImageData(x, y, 2 * half + 1, 2 * half + 1).data;
-      const lo = [255, 255, 255];
-      const hi = [0, 0, 0];
-      const sum = [0, 0, 0];
-      for (let i = 0; i < px.length; i += 4) {
+  return withPixels(lab, [png], ([image], { origin, points, half }) => points.map((p) => {
+    const x0 = Math.round(p.x - origin.x) - half;
+    const y0 = Math.round(p.y - origin.y) - half;
+    const lo = [255, 255, 255];
+    const hi = [0, 0, 0];
+    const sum = [0, 0, 0];
+    for (let y = y0; y <= y0 + 2 * half; ++y) {
+      for (let x = x0; x <= x0 + 2 * half; ++x) {
+        const inside = x >= 0 && y >= 0 && x < image.width && y < image.height;
+        const i = 4 * (y * image.width + x);
         for (let k = 0; k < 3; ++k) {
-          lo[k] = Math.min(lo[k], px[i + k]);
-          hi[k] = Math.max(hi[k], px[i + k]);
-          sum[k] += px[i + k];
+          const v = inside ? image.data[i + k] : 0;
+          lo[k] = Math.min(lo[k], v);
+          hi[k] = Math.max(hi[k], v);
+          sum[k] += v;
         }
       }
-      return { mean: sum.map((s) => s / (px.length / 4)), spread: Math.max(...hi.map((h, k) => h - lo[k])) };
-    });
-  }, { data: png.toString('base64'), origin, points, half });
+    }
+    return { mean: sum.map((s) => s / ((2 * half + 1) ** 2)), spread: Math.max(...hi.map((h, k) => h - lo[k])) };
+  }), { origin, points, half });
 }
 
 /// Counts the pixels of `png` within `tolerance` of `rgb` in every channel; with rgb null, inside
@@ -62,17 +53,9 @@ function patchColors(lab, png, origin, points, half = 2) {
 /// them in the plain bone colour's hue (green and blue near red, as in 0xd9cdb5, however lit,
 /// unlike the highlight's orange): { pixels, near } or { foreground, plain }. Decoded on `lab`.
 function countNear(lab, png, rgb, tolerance, { rect = null, origin = null, background = null } = {}) {
-  return lab.evaluate(async ({ data, rgb, tolerance, rect, origin, background }) => {
-    const image = new Image();
-    image.src = `data:image/png;base64,${data}`;
-    await image.decode();
-    const c = document.createElement('canvas');
-    c.width = image.width;
-    c.height = image.height;
-    const g = c.getContext('2d');
-    g.drawImage(image, 0, 0);
+  return withPixels(lab, [png], ([image], { rgb, tolerance, rect, origin, background }) => {
+    const px = image.data;
     if (rgb) {
-      const px = g.getImageData(0, 0, image.width, image.height).data;
       let near = 0;
       for (let i = 0; i < px.length; i += 4) {
         if ([0, 1, 2].every((k) => Math.abs(px[i + k] - rgb[k]) <= tolerance)) ++near;
@@ -83,47 +66,32 @@ function countNear(lab, png, rgb, tolerance, { rect = null, origin = null, backg
     const y0 = Math.max(0, Math.floor(rect.top - origin.y));
     const x1 = Math.min(image.width, Math.ceil(rect.right - origin.x));
     const y1 = Math.min(image.height, Math.ceil(rect.bottom - origin.y));
-    const px = g.getImageData(x0, y0, x1 - x0, y1 - y0).data;
     const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
     let foreground = 0;
     let plain = 0;
-    for (let i = 0; i < px.length; i += 4) {
-      if (![0, 1, 2].some((k) => Math.abs(px[i + k] - bg[k]) > 24)) continue;
-      ++foreground;
-      if (px[i + 1] >= 0.85 * px[i] && px[i + 2] >= 0.7 * px[i]) ++plain;
+    for (let y = y0; y < y1; ++y) {
+      for (let x = x0; x < x1; ++x) {
+        const i = 4 * (y * image.width + x);
+        if (![0, 1, 2].some((k) => Math.abs(px[i + k] - bg[k]) > 24)) continue;
+        ++foreground;
+        if (px[i + 1] >= 0.85 * px[i] && px[i + 2] >= 0.7 * px[i]) ++plain;
+      }
     }
     return { foreground, plain };
-  }, { data: png.toString('base64'), rgb, tolerance, rect, origin, background });
+  }, { rgb, tolerance, rect, origin, background });
 }
 
 describe('a capped cut', { skip: skip ?? false }, () => {
-  let work;
-  let server;
-  let browser;
-  let m;
-
-  before(async () => {
-    work = mkdtempSync(path.join(tmpdir(), 'osteon-cap-'));
-    osteon('phantom', '-o', path.join(work, 'phantom'));
-    // Full resolution only: every view is final once loaded (no refinement to wait for).
-    m = pack([path.join(work, 'phantom')], path.join(work, 'site', 'p'), ['--no-lod']);
-    server = await serve(path.join(work, 'site'));
-    browser = await launchBrowser();
-  });
-
-  after(async () => {
-    await browser?.close();
-    await server?.close();
-    if (work) rmSync(work, { recursive: true, force: true });
-  });
+  // Full resolution only: every view is final once loaded (no refinement to wait for).
+  const site = phantomSite('osteon-cap-', ['--no-lod']);
 
   test('the sections are filled with the bones\' colour; a second plane cuts and is capped too', async () => {
-    const context = await browser.newContext(kView);
+    const context = await site.browser.newContext(kView);
     const lab = await context.newPage();  // decodes the screenshots
-    const { page, problems } = await openViewer(context, `${server.url}p/`);
+    const { page, problems } = await openViewer(context, `${site.server.url}p/`);
     const full = await waitLoaded(page);
     assert.deepEqual(full.errors, []);
-    const { min, max } = m.bounds;
+    const { min, max } = site.m.bounds;
     const center = min.map((v, i) => (v + max[i]) / 2);
     // Straight at the plane across Y, from the side it cuts away (-Y), Z up.
     const distance = 1.25 * (max[2] - min[2]) / 2 / Math.tan((20 * Math.PI) / 180);

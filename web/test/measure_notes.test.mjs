@@ -13,15 +13,14 @@
 // Environment: see browser_helpers.mjs.
 
 import assert from 'node:assert/strict';
-import { mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { mkdirSync, readFileSync } from 'node:fs';
 import path from 'node:path';
-import { after, before, describe, test } from 'node:test';
+import { before, describe, test } from 'node:test';
 
 import { angleOf, distanceOf } from '../viewer/measure.mjs';
 import { wrapText } from '../viewer/overlay.mjs';
 import { encodeViewState, parseViewState } from '../viewer/share.mjs';
-import { artifacts, launchBrowser, missingPrerequisite, openViewer, osteon, pack, serve, settle, waitLoaded } from './browser_helpers.mjs';
+import { artifacts, missingPrerequisite, openViewer, phantomSite, settle, waitLoaded } from './browser_helpers.mjs';
 
 const skip = missingPrerequisite();
 if (skip) console.log(`# measure and notes browser tests skipped: ${skip}`);
@@ -101,10 +100,6 @@ const overlayTexts = (page) => page.evaluate(() => [...document.querySelector('o
 }));
 
 describe('measurements and notes on the surface', { skip: skip ?? false }, () => {
-  let work;
-  let server;
-  let browser;
-  let m;
   let skullVertex;
   let skullBox;  // the source mesh's box
   let femurVertex;
@@ -113,17 +108,18 @@ describe('measurements and notes on the surface', { skip: skip ?? false }, () =>
   let context;
   let picksPoints = false;  // the renderer answers picks with the surface point
 
+  const site = phantomSite('osteon-measure-', [], {
+    phantomArgs: ['--format', 'obj'],
+    beforePack: (work) => {
+      const phantom = path.join(work, 'phantom');
+      ({ first: skullVertex, box: skullBox } = verticesOf(path.join(phantom, 'skull.obj')));
+      femurVertex = verticesOf(path.join(phantom, 'femur_l.obj')).first;
+    },
+  });
+
   before(async () => {
-    work = mkdtempSync(path.join(tmpdir(), 'osteon-measure-'));
-    const phantom = path.join(work, 'phantom');
-    osteon('phantom', '-o', phantom, '--format', 'obj');
-    ({ first: skullVertex, box: skullBox } = verticesOf(path.join(phantom, 'skull.obj')));
-    femurVertex = verticesOf(path.join(phantom, 'femur_l.obj')).first;
-    m = pack([phantom], path.join(work, 'site', 'p'));
-    server = await serve(path.join(work, 'site'));
-    browser = await launchBrowser();
-    context = await browser.newContext({ ...kDesktop, acceptDownloads: true });
-    ({ page, problems } = await openViewer(context, `${server.url}p/`));
+    context = await site.browser.newContext({ ...kDesktop, acceptDownloads: true });
+    ({ page, problems } = await openViewer(context, `${site.server.url}p/`));
     page.on('dialog', (d) => {
       problems.push(`dialog: ${d.message()}`);
       d.dismiss();
@@ -132,21 +128,16 @@ describe('measurements and notes on the surface', { skip: skip ?? false }, () =>
     assert.deepEqual(state.errors, []);
   });
 
-  after(async () => {
-    await browser?.close();
-    await server?.close();
-    if (work) rmSync(work, { recursive: true, force: true });
-  });
 
   test('the distance between two vertices, with the sum of their parts\' error bounds; a right angle', async () => {
     const d = await page.evaluate(([a, b]) => window.osteon.measure({ point: a, part: 'skull' }, { point: b, part: 'femur_l' }), [skullVertex, femurVertex]);
     const expected = Math.hypot(...skullVertex.map((v, i) => v - femurVertex[i]));
     assert.ok(Math.abs(d.distance - expected) <= 1e-9 * expected, `${d.distance} against ${expected}`);
-    const bound = partBound(m, 'skull') + partBound(m, 'femur_l');
+    const bound = partBound(site.m, 'skull') + partBound(site.m, 'femur_l');
     assert.ok(bound > 0);
     assert.ok(Math.abs(d.errorBound - bound) <= 1e-12 * bound, `${d.errorBound} against ${bound}`);
-    assert.equal(d.unit, m.unit);
-    assert.match(d.text, new RegExp(`^[0-9.]+ ${m.unit} ± [0-9.e-]+ ${m.unit}$`));
+    assert.equal(d.unit, site.m.unit);
+    assert.match(d.text, new RegExp(`^[0-9.]+ ${site.m.unit} ± [0-9.e-]+ ${site.m.unit}$`));
     // Given without parts, each point takes the part whose box holds it.
     const plain = await page.evaluate(([a, b]) => window.osteon.measure(a, b), [skullVertex, femurVertex]);
     assert.ok(Math.abs(plain.distance - expected) <= 1e-9 * expected);
@@ -171,14 +162,14 @@ describe('measurements and notes on the surface', { skip: skip ?? false }, () =>
     picksPoints = true;
     assert.deepEqual(r.parts, ['skull', 'skull']);
     // On the decoded skull: inside the source mesh's box, give or take its error bound.
-    const slack = partBound(m, 'skull') + 1e-3;
+    const slack = partBound(site.m, 'skull') + 1e-3;
     for (const p of r.points) {
       for (let i = 0; i < 3; ++i) assert.ok(p[i] >= skullBox.min[i] - slack && p[i] <= skullBox.max[i] + slack, `point ${p} outside the skull's box`);
     }
     const expected = Math.hypot(...r.points[0].map((x, i) => x - r.points[1][i]));
     assert.ok(Math.abs(r.distance - expected) <= 1e-9 * Math.max(1, expected));
     assert.ok(r.distance > 0);
-    assert.equal(r.errorBound, 2 * partBound(m, 'skull'));
+    assert.equal(r.errorBound, 2 * partBound(site.m, 'skull'));
 
     // The tool: three taps, skull, pelvis, skull again; the selection does not change.
     const before = await page.evaluate(() => window.osteon.notes().measurements.length);
@@ -249,7 +240,7 @@ describe('measurements and notes on the surface', { skip: skip ?? false }, () =>
 
     // A hostile link: markup in a note, 1000 notes.
     const note = (i) => `${skullVertex.join(',')},skull,${encodeURIComponent(i ? `n${i}` : kHostile)}`;
-    const hostile = await openViewer(context, `${server.url}p/#v=1&notes=${Array.from({ length: 1000 }, (_, i) => note(i)).join(';')}`);
+    const hostile = await openViewer(context, `${site.server.url}p/#v=1&notes=${Array.from({ length: 1000 }, (_, i) => note(i)).join(';')}`);
     hostile.page.on('dialog', (d) => {
       hostile.problems.push(`dialog: ${d.message()}`);
       d.dismiss();
@@ -332,7 +323,7 @@ describe('measurements and notes on the surface', { skip: skip ?? false }, () =>
     const [download] = await Promise.all([page.waitForEvent('download'), page.locator('#notes-export').click()]);
     assert.equal(download.suggestedFilename(), 'osteon-notes.json');
     const json = JSON.parse(readFileSync(await download.path(), 'utf8'));
-    assert.equal(json.unit, m.unit);
+    assert.equal(json.unit, site.m.unit);
     assert.deepEqual(json, await page.evaluate(() => window.osteon.notes()));
     assert.ok(json.notes.length >= 1);
     assert.equal(json.notes[0].part, 'skull');

@@ -11,17 +11,14 @@
 // Environment: see browser_helpers.mjs.
 
 import assert from 'node:assert/strict';
-import { mkdtempSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
-import path from 'node:path';
-import { after, before, describe, test } from 'node:test';
+import { describe, test } from 'node:test';
 
 import { BackSide, Color, Group, SRGBColorSpace } from 'three';
 
 import { drawInfo, drawStats, parseManifest } from '../viewer/manifest.mjs';
 import { createPackageScene } from '../viewer/scene.mjs';
 
-import { launchBrowser, missingPrerequisite, openViewer, osteon, pack, serve, settle, shootCanvas, waitLoaded } from './browser_helpers.mjs';
+import { missingPrerequisite, openViewer, phantomSite, settle, shootCanvas, waitLoaded, withPixels } from './browser_helpers.mjs';
 
 const skip = missingPrerequisite();
 if (skip) console.log(`# render feature browser tests skipped: ${skip}`);
@@ -38,44 +35,28 @@ function inBox(point, box, slack = 1e-3) {
 
 const distance = (a, b) => Math.hypot(...a.map((v, i) => v - b[i]));
 
-/// Decodes two screenshots of the canvas (PNGs, decoded by the browser) and returns, per client
+/// Decodes two screenshots of the canvas (PNGs, decoded by withPixels) and returns, per client
 /// rectangle, { foreground (pixels of `a` off the background), changed (those that differ in
 /// `b` by more than 24 in a channel), green (pixels of `b` off the background that are green) }.
-async function compareShots(context, a, b, box, background, rects) {
-  const page = await context.newPage();
-  try {
-    return await page.evaluate(async ({ a, b, origin, background, rects }) => {
-      const pixelsOf = async (data) => {
-        const image = new Image();
-        image.src = `data:image/png;base64,${data}`;
-        await image.decode();
-        const c = document.createElement('canvas');
-        c.width = image.width;
-        c.height = image.height;
-        c.getContext('2d').drawImage(image, 0, 0);
-        return { width: image.width, height: image.height, px: c.getContext('2d').getImageData(0, 0, image.width, image.height).data };
-      };
-      const [pa, pb] = await Promise.all([pixelsOf(a), pixelsOf(b)]);
-      const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
-      const off = (px, i) => [0, 1, 2].some((c) => Math.abs(px[i + c] - bg[c]) > 24);
-      return rects.map((r) => {
-        const out = { foreground: 0, changed: 0, green: 0 };
-        for (let y = Math.max(0, Math.floor(r.top - origin.y)); y < Math.min(pa.height, Math.ceil(r.bottom - origin.y)); ++y) {
-          for (let x = Math.max(0, Math.floor(r.left - origin.x)); x < Math.min(pa.width, Math.ceil(r.right - origin.x)); ++x) {
-            const i = 4 * (y * pa.width + x);
-            if (off(pa.px, i)) {
-              ++out.foreground;
-              if ([0, 1, 2].some((c) => Math.abs(pa.px[i + c] - pb.px[i + c]) > 24)) ++out.changed;
-            }
-            if (off(pb.px, i) && pb.px[i + 1] > pb.px[i] + 20 && pb.px[i + 1] > pb.px[i + 2] + 20) ++out.green;
+function compareShots(context, a, b, box, background, rects) {
+  return withPixels(context, [a, b], ([pa, pb], { origin, background, rects }) => {
+    const bg = [1, 3, 5].map((i) => parseInt(background.slice(i, i + 2), 16));
+    const off = (px, i) => [0, 1, 2].some((c) => Math.abs(px[i + c] - bg[c]) > 24);
+    return rects.map((r) => {
+      const out = { foreground: 0, changed: 0, green: 0 };
+      for (let y = Math.max(0, Math.floor(r.top - origin.y)); y < Math.min(pa.height, Math.ceil(r.bottom - origin.y)); ++y) {
+        for (let x = Math.max(0, Math.floor(r.left - origin.x)); x < Math.min(pa.width, Math.ceil(r.right - origin.x)); ++x) {
+          const i = 4 * (y * pa.width + x);
+          if (off(pa.data, i)) {
+            ++out.foreground;
+            if ([0, 1, 2].some((c) => Math.abs(pa.data[i + c] - pb.data[i + c]) > 24)) ++out.changed;
           }
+          if (off(pb.data, i) && pb.data[i + 1] > pb.data[i] + 20 && pb.data[i + 1] > pb.data[i + 2] + 20) ++out.green;
         }
-        return out;
-      });
-    }, { a: a.toString('base64'), b: b.toString('base64'), origin: { x: box.x, y: box.y }, background, rects });
-  } finally {
-    await page.close();
-  }
+      }
+      return out;
+    });
+  }, { origin: { x: box.x, y: box.y }, background, rects });
 }
 
 /// A stand-in for a decoded component: its box's 12 triangles, as many as the level has.
@@ -90,27 +71,10 @@ function boxMesh(component, level = 0) {
 }
 
 describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, () => {
-  let work;
-  let server;
-  let browser;
-  let m;
-
-  before(async () => {
-    work = mkdtempSync(path.join(tmpdir(), 'osteon-render-'));
-    osteon('phantom', '-o', path.join(work, 'phantom'), ...(kDetail ? ['--detail', kDetail] : []));
-    m = pack([path.join(work, 'phantom')], path.join(work, 'site', 'p'), ['--no-lod']);
-    server = await serve(path.join(work, 'site'));
-    browser = await launchBrowser();
-  });
-
-  after(async () => {
-    await browser?.close();
-    await server?.close();
-    if (work) rmSync(work, { recursive: true, force: true });
-  });
+  const site = phantomSite('osteon-render-', ['--no-lod'], { phantomArgs: kDetail ? ['--detail', kDetail] : [] });
 
   test('the scene: see-through parts leave their batches for a Mesh per instance, colours reach both', () => {
-    const manifest = parseManifest(m);
+    const manifest = parseManifest(site.m);
     const s = createPackageScene(manifest, new Group());
     for (const c of manifest.components) s.addComponent(c.id, boxMesh(c));
     const batch = s.batches.find((b) => b.instanced && b.instances.length >= 3);
@@ -152,13 +116,13 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
   });
 
   test('colours, opacity in depth order, and picks with points', async () => {
-    const context = await browser.newContext(kDesktop);
-    const { page, problems } = await openViewer(context, `${server.url}p/`);
+    const context = await site.browser.newContext(kDesktop);
+    const { page, problems } = await openViewer(context, `${site.server.url}p/`);
     const loaded = await waitLoaded(page, 180000);
     assert.deepEqual(loaded.errors, []);
-    const parts = m.parts.length;
-    const partId = (name) => m.parts.find((p) => p.display_name === name).id;
-    const { partBounds } = parseManifest(m);
+    const parts = site.m.parts.length;
+    const partId = (name) => site.m.parts.find((p) => p.display_name === name).id;
+    const { partBounds } = parseManifest(site.m);
     const bounds = async (name) => page.evaluate((n) => window.osteon.screenBoundsOf(n), name);
     const box = await page.locator('#canvas').boundingBox();
     const toNdc = (x, y) => [((x - box.x) / box.width) * 2 - 1, -((y - box.y) / box.height) * 2 + 1];
@@ -170,12 +134,12 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
     assert.equal(await page.evaluate((c) => window.osteon.setPartStyle({ colors: c }), Array.from({ length: parts }, () => kGreen).flat()), true);
     await settle(page);
     const green = await shootCanvas(page, 'render-colors');
-    const rects = await Promise.all(m.parts.map((p) => bounds(p.display_name)));
+    const rects = await Promise.all(site.m.parts.map((p) => bounds(p.display_name)));
     const counts = await compareShots(context, before.png, green.png, box, loaded.background, rects);
     for (const [id, c] of counts.entries()) {
       if (c.foreground < 30) continue;  // too small or off screen
-      assert.ok(c.changed / c.foreground > 0.9, `${m.parts[id].display_name}: ${c.changed} of ${c.foreground} pixels changed`);
-      assert.ok(c.green / c.foreground > 0.8, `${m.parts[id].display_name}: ${c.green} of ${c.foreground} pixels green`);
+      assert.ok(c.changed / c.foreground > 0.9, `${site.m.parts[id].display_name}: ${c.changed} of ${c.foreground} pixels changed`);
+      assert.ok(c.green / c.foreground > 0.8, `${site.m.parts[id].display_name}: ${c.green} of ${c.foreground} pixels green`);
     }
     assert.ok(counts.filter((c) => c.foreground >= 30).length >= parts - 4, 'most parts are on screen');
 
@@ -190,7 +154,7 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
       const t0 = performance.now();
       const hit = await pickAt(toNdc(at.x, at.y), false);
       pickTimes.push(performance.now() - t0);
-      assert.equal(hit.part, partId(name), `${name}: picked ${m.parts[hit.part]?.display_name}`);
+      assert.equal(hit.part, partId(name), `${name}: picked ${site.m.parts[hit.part]?.display_name}`);
       assert.ok(inBox(hit.point, partBounds[partId(name)]), `${name}: ${hit.point} outside its box`);
       assert.ok(Math.abs(Math.hypot(...hit.normal) - 1) < 1e-4, `${name}: |normal| ${Math.hypot(...hit.normal)}`);
       const toEye = eye.map((v, i) => v - hit.point[i]);
@@ -209,7 +173,7 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
     for (const name of ['skull', 'vertebra_l2', 'femur_l']) {
       const at = await page.evaluate((n) => window.osteon.screenPositionOf(n), name);
       const hit = await pickAt(toNdc(at.x, at.y), false);
-      assert.equal(hit.part, partId(name), `${name} through the trees: picked ${m.parts[hit.part]?.display_name}`);
+      assert.equal(hit.part, partId(name), `${name} through the trees: picked ${site.m.parts[hit.part]?.display_name}`);
       assert.ok(inBox(hit.point, partBounds[partId(name)]), `${name} through the trees: ${hit.point} outside its box`);
     }
 
@@ -265,7 +229,7 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
     const seeThrough = await cost((k) => ({ opacity: Array.from({ length: parts }, (_, p) => (p === skull || p % 3 === 0 ? 0.2 + 0.1 * k : 1)) }));
     const others = await cost((k) => ({ opacity: Array.from({ length: parts }, (_, p) => (p % 3 === k % 3 ? 0.5 : 1)) }));
     const recolour = await cost((k) => ({ colors: Array.from({ length: parts }, (_, p) => [(p + k) % 2, 0.5, 0.2]).flat() }));
-    const triangles = m.components.reduce((sum, c) => sum + c.triangles, 0);
+    const triangles = site.m.components.reduce((sum, c) => sum + c.triangles, 0);
     const line = (c) => `setParts ${c.partsMs.toFixed(2)} ms + render() ${c.renderMs.toFixed(2)} ms in the worker, call to frame drawn ${c.frameMs.toFixed(1)} ms`;
     console.log(`# phantom of ${triangles} triangles (detail ${kDetail ?? 'default'}), ${parts} parts; medians of 4 changes`);
     console.log(`# opacity change, a third of the parts see-through: ${line(seeThrough)}`);

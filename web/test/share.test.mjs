@@ -13,13 +13,12 @@
 // Environment: see browser_helpers.mjs.
 
 import assert from 'node:assert/strict';
-import { cpSync, mkdirSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { cpSync, mkdirSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
-import { after, before, describe, test } from 'node:test';
+import { describe, test } from 'node:test';
 
 import {
-  countDiffering, launchBrowser, missingPrerequisite, openViewer, osteon, pack, serve, settle, shootCanvas, viewerDir, waitLoaded, waitRefined,
+  countDiffering, missingPrerequisite, openViewer, phantomSite, settle, shootCanvas, viewerDir, waitLoaded, waitRefined,
 } from './browser_helpers.mjs';
 
 const skip = missingPrerequisite();
@@ -49,32 +48,17 @@ function assertCameraClose(actual, expected, what) {
 }
 
 describe('a view shared by URL', { skip: skip ?? false }, () => {
-  let work;
-  let server;
-  let browser;
-  let m;
-
-  before(async () => {
-    work = mkdtempSync(path.join(tmpdir(), 'osteon-share-'));
-    const site = path.join(work, 'site');
-    osteon('phantom', '-o', path.join(work, 'phantom'));
-    m = pack([path.join(work, 'phantom')], path.join(site, 'p'), ['--chunk-bytes', '8000']);
-    cpSync(viewerDir, path.join(site, 'lib'), { recursive: true, filter: (f) => !/index\.html/.test(path.basename(f)) });
-    mkdirSync(path.join(site, 'embed'));
-    server = await serve(site);
-    browser = await launchBrowser();
-  });
-
-  after(async () => {
-    await browser?.close();
-    await server?.close();
-    if (work) rmSync(work, { recursive: true, force: true });
+  const site = phantomSite('osteon-share-', ['--chunk-bytes', '8000'], {
+    afterPack: (work) => {
+      cpSync(viewerDir, path.join(work, 'site', 'lib'), { recursive: true, filter: (f) => !/index\.html/.test(path.basename(f)) });
+      mkdirSync(path.join(work, 'site', 'embed'));
+    },
   });
 
   test('camera, selection, hidden parts and the clipping plane travel in the link, the hash and the view attribute', async () => {
-    const context = await browser.newContext(kDesktop);
-    await context.grantPermissions(['clipboard-read', 'clipboard-write'], { origin: server.url });
-    const { page, problems } = await openViewer(context, `${server.url}p/`);
+    const context = await site.browser.newContext(kDesktop);
+    await context.grantPermissions(['clipboard-read', 'clipboard-write'], { origin: site.server.url });
+    const { page, problems } = await openViewer(context, `${site.server.url}p/`);
     const full = await waitLoaded(page);
     assert.deepEqual(full.errors, []);
     const fitted = await page.evaluate(() => window.osteon.cameraState());
@@ -113,7 +97,7 @@ describe('a view shared by URL', { skip: skip ?? false }, () => {
     const original = await waitRefined(page);
     const camera = await page.evaluate(() => window.osteon.cameraState());
     assertCameraClose(camera, set, 'set');
-    assert.equal(original.instancesDrawn, m.instances.length - 1);
+    assert.equal(original.instancesDrawn, site.m.instances.length - 1);
 
     // The hash follows the view (debounced); "Copy link" puts the same link on the clipboard.
     await page.waitForFunction(() => {
@@ -134,7 +118,7 @@ describe('a view shared by URL', { skip: skip ?? false }, () => {
     const shotA = await shootCanvas(page, 'share-original');
 
     // A fresh browser context opens the link: the same view.
-    const fresh = await browser.newContext(kDesktop);
+    const fresh = await site.browser.newContext(kDesktop);
     const opened = await openViewer(fresh, link);
     await waitLoaded(opened.page);
     const restored = await waitRefined(opened.page);
@@ -163,14 +147,14 @@ describe('a view shared by URL', { skip: skip ?? false }, () => {
     assert.deepEqual(isoState.errors, []);
 
     // The same text as an element's view attribute, on a page of its own.
-    writeFileSync(path.join(work, 'site', 'embed', 'index.html'), `<!doctype html><meta charset="utf-8"><link rel="icon" href="data:,">
+    writeFileSync(path.join(site.work, 'site', 'embed', 'index.html'), `<!doctype html><meta charset="utf-8"><link rel="icon" href="data:,">
 <style>body { margin: 0; } osteon-viewer { width: 1000px; height: 700px; }</style>
 <script type="module" src="../lib/osteon-viewer.mjs"></script>
 <osteon-viewer id="v" src="../p/" view="${hash.slice(1).replaceAll('&', '&amp;')}"></osteon-viewer>`);
     const embed = await fresh.newPage();
     const embedProblems = [];
     embed.on('pageerror', (e) => embedProblems.push(e.message));
-    await embed.goto(`${server.url}embed/`);
+    await embed.goto(`${site.server.url}embed/`);
     await embed.waitForFunction(() => document.getElementById('v').report?.done === true, null, { timeout: 60000 });
     const viaAttribute = await embed.evaluate(() => {
       const el = document.getElementById('v');
@@ -194,11 +178,11 @@ describe('a view shared by URL', { skip: skip ?? false }, () => {
   });
 
   test('"Copy link" selects the link where the clipboard refuses it', async () => {
-    const context = await browser.newContext(kDesktop);
+    const context = await site.browser.newContext(kDesktop);
     await context.addInitScript(() => {
       Object.defineProperty(navigator, 'clipboard', { value: { writeText: () => Promise.reject(new Error('denied')) } });
     });
-    const { page, problems } = await openViewer(context, `${server.url}p/`);
+    const { page, problems } = await openViewer(context, `${site.server.url}p/`);
     await waitLoaded(page);
     await page.evaluate(() => window.osteon.select('pelvis'));
     await page.locator('#copy-link').click();
@@ -216,7 +200,7 @@ describe('a view shared by URL', { skip: skip ?? false }, () => {
   });
 
   test('bad values in the hash are left out, each named, and the rest of the view applies', async () => {
-    const context = await browser.newContext(kDesktop);
+    const context = await site.browser.newContext(kDesktop);
     const bad = [
       '#v=1&cam=1,2,nope,4,5,6&sel=no_such_bone&hide=femur_l,%E0%A4%A&clip=7,500,0&off=no_group',
       '#v=9&sel=skull',
@@ -225,24 +209,24 @@ describe('a view shared by URL', { skip: skip ?? false }, () => {
       '#%%%&&==&v=1',
     ];
     for (const hash of bad) {
-      const { page, problems } = await openViewer(context, `${server.url}p/${hash}`);
+      const { page, problems } = await openViewer(context, `${site.server.url}p/${hash}`);
       const state = await waitLoaded(page);
       assert.deepEqual(problems, [], hash);
-      assert.equal(state.componentsLoaded, m.components.length, hash);
+      assert.equal(state.componentsLoaded, site.m.components.length, hash);
       const viewErrors = state.errors.filter((e) => e.startsWith('osteon: view: '));
       assert.equal(viewErrors.length, state.errors.length, `${hash}: only view messages: ${state.errors}`);
       assert.ok(viewErrors.length >= 1, `${hash}: a message`);
       assert.equal(await page.locator('#errors').isVisible(), true, hash);
       if (hash.startsWith('#v=1&cam=1,2')) {
         // The femur is hidden; the camera, the unknown bone, the bad name, the plane and the group are named.
-        assert.equal(state.instancesDrawn, m.instances.length - 1);
+        assert.equal(state.instancesDrawn, site.m.instances.length - 1);
         for (const word of ['camera "1,2,nope', 'no part "no_such_bone"', 'not URL-encoded', 'clip "7,500,0"', 'no group "no_group"']) {
           assert.ok(viewErrors.some((e) => e.includes(word)), `${word} in ${viewErrors}`);
         }
         assert.equal(state.selected, null);
         assert.equal(await page.locator('#clip-on').isChecked(), false);
       } else {
-        assert.equal(state.instancesDrawn, m.instances.length, hash);
+        assert.equal(state.instancesDrawn, site.m.instances.length, hash);
         assert.equal(state.selected, null, hash);
       }
       await page.close();
