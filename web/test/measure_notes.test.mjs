@@ -301,6 +301,33 @@ describe('measurements and notes on the surface', { skip: skip ?? false }, () =>
     await page.evaluate((text) => window.osteon.setViewState(text), view);
     await settle(page);
     assert.ok((await marks()).point);
+    // A note on the skull's near side is drawn plainly; seen from the opposite side, the skull's
+    // other wall hides it, and it is drawn faded.
+    const canvasBox = await page.locator('#canvas').boundingBox();
+    const skullAt = await page.evaluate(() => window.osteon.screenPositionOf('skull'));
+    const ndc = [((skullAt.x - canvasBox.x) / canvasBox.width) * 2 - 1, -((skullAt.y - canvasBox.y) / canvasBox.height) * 2 + 1];
+    const front = await page.evaluate((n) => window.osteon.pickAt(n), ndc);
+    assert.equal(site.m.parts[front.part].name.replace(/\.[a-z]+$/, ''), 'skull');
+    await page.evaluate((p) => window.osteon.addNote({ point: p, part: 'skull', text: 'Near side' }), front.point);
+    const faded = () => page.evaluate(() => {
+      const overlay = document.querySelector('osteon-viewer').shadowRoot.getElementById('overlay');
+      const label = [...overlay.querySelectorAll('.note-label')].find((t) => t.textContent.includes('Near side'));
+      return label ? label.classList.contains('behind') : null;
+    });
+    await page.waitForTimeout(600);  // the depth check runs after the view has been still
+    assert.equal(await faded(), false);
+    const cam0 = await page.evaluate(() => window.osteon.cameraState());
+    const opposite = cam0.position.map((v, i) => 2 * cam0.target[i] - v);
+    const withNote = await page.evaluate(() => window.osteon.viewState());  // a view carries its notes
+    await page.evaluate((text) => window.osteon.setViewState(text), withNote.replace(/cam=[^&]*/, `cam=${[...opposite, ...cam0.target, ...cam0.up, cam0.fov].join(',')}`));
+    await settle(page);
+    await page.waitForFunction(() => {
+      const overlay = document.querySelector('osteon-viewer').shadowRoot.getElementById('overlay');
+      return [...overlay.querySelectorAll('.note-label.behind')].some((t) => t.textContent.includes('Near side'));
+    }, null, { timeout: 10000 });
+    await page.screenshot({ path: path.join(artifacts, 'notes-behind.png') });
+    await page.evaluate((text) => window.osteon.setViewState(text), view);
+    await settle(page);
     // The tools are buttons in the tab order: Space toggles them.
     await page.locator('#measure-tool').focus();
     await page.keyboard.press('Space');

@@ -30,7 +30,7 @@ import { kFovDeg } from './camera.mjs';
 import { wireKeyboard } from './keyboard.mjs';
 import { findPart, parseManifest } from './manifest.mjs';
 import { measure, measureHits } from './measure.mjs';
-import { addNote, annotationsExport, wireNotes } from './notes.mjs';
+import { addNote, annotationsExport, checkNotesDepth, wireNotes } from './notes.mjs';
 import { drawOverlay, wireOverlay } from './overlay.mjs';
 import {
   $, buildGroups, buildListsSoon, hidePart, isolatePart, kListsAfterMs, reportError, select, selectByName, showAllParts, showPart, updateClip,
@@ -264,6 +264,7 @@ export function createViewer({ host, root, boot, budget = {}, background, syncHa
   let shareTimer = null;
   state.onViewChanged = () => {
     drawOverlay(state);  // the measurements and notes follow the camera
+    checkNotesDepth(state);  // and a note that a bone hides now is faded
     if (!state.shareArmed || shareTimer !== null) return;
     shareTimer = setTimeout(() => {
       shareTimer = null;

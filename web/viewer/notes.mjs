@@ -8,8 +8,11 @@
 // can write. Its point is rounded when pinned (roundPoint), so the note a link brings back is the
 // note that was made, to the digit.
 
+import { Vector3 } from 'three';
+
 import { findPart } from './manifest.mjs';
-import { clearMeasurements, measurementsView } from './measure.mjs';
+import { clearMeasurements, measurementsView, partErrorBound } from './measure.mjs';
+import { pickAt } from './picking.mjs';
 import { annotations, drawOverlay, setHint } from './overlay.mjs';
 import { viewChanged } from './state.mjs';
 
@@ -55,6 +58,7 @@ export function addNote(state, { point, part, text } = {}) {
   const note = { p: roundPoint(manifest, point), part: partIdOf(manifest, part), text: body };
   a.notes.push(note);
   drawOverlay(state);
+  checkNotesDepth(state);
   viewChanged(state);  // the share link carries the notes
   return noteView(manifest, note);
 }
@@ -78,6 +82,7 @@ export function setNotes(state, list, errors = []) {
     return { p: roundPoint(manifest, n.p), part, text: String(n.text).slice(0, kMaxNoteText) };
   });
   drawOverlay(state);
+  checkNotesDepth(state);
   return errors;
 }
 
@@ -184,4 +189,43 @@ export function wireNotes(state) {
     if (a.tool === 'note') clearNotes(state);
     else clearMeasurements(state);
   });
+}
+
+const kDepthCheckMs = 150;  // after the view's last change, the notes' depth is checked
+
+/// Marks the notes that a surface hides from the camera as it is now (drawn faded, so a note on
+/// the far side of a bone does not read as this side's): a quiet pick through each note's point
+/// whose hit lies nearer the eye than the note, by more than the two parts' error bounds and a
+/// thousandth of the package's size, puts the note behind. Debounced; the answers of a later
+/// view replace an earlier one's. O(notes) picks, each O(log triangles) with the picking trees.
+export function checkNotesDepth(state) {
+  const a = annotations(state);
+  clearTimeout(a.depthTimer);
+  if (!a.notes.length || !state.manifest) return;
+  a.depthTimer = setTimeout(() => markHiddenNotes(state), kDepthCheckMs);
+}
+
+async function markHiddenNotes(state) {
+  const a = annotations(state);
+  const seq = (a.depthSeq = (a.depthSeq ?? 0) + 1);
+  const { camera, manifest } = state;
+  camera.updateMatrixWorld();
+  const eye = camera.position.toArray();
+  const { min, max } = manifest.bounds;
+  const size = Math.hypot(...max.map((v, i) => v - min[i]));
+  const notes = a.notes.slice();
+  const v = new Vector3();
+  const answers = await Promise.all(notes.map((n) => {
+    v.fromArray(n.p).project(camera);
+    if (!(Math.abs(v.x) <= 1 && Math.abs(v.y) <= 1 && Math.abs(v.z) <= 1)) return null;  // not in view
+    return pickAt(state, [v.x, v.y], { quiet: true });
+  }));
+  if (seq !== a.depthSeq) return;
+  const from = (p) => Math.hypot(...p.map((x, i) => x - eye[i]));
+  notes.forEach((n, k) => {
+    const hit = answers[k];
+    const slack = 1e-3 * size + partErrorBound(manifest, n.part) + (hit ? partErrorBound(manifest, hit.part) : 0);
+    n.behind = !!hit?.point && from(hit.point) < from(n.p) - slack;
+  });
+  drawOverlay(state);
 }

@@ -23,7 +23,7 @@ const kCharPixels = 7.8;               // about the width of a character of the 
 /// This viewer's measurements, notes and tool state (made on first use):
 ///   tool: null | 'measure' | 'note', measurements: [{ points: [[x, y, z]], parts: [part id or
 ///   -1] }] (2 points: a distance, 3: also the angle at the middle one), current: the measurement
-///   taking points (or null), notes: [{ p: [x, y, z], part: part id or -1, text }], pendingNote:
+///   taking points (or null), notes: [{ p: [x, y, z], part: part id or -1, text, behind (a surface hides it) }], pendingNote:
 ///   { point, part } while the note's text is asked for, pickWaiters: pick id -> resolve
 ///   (picking.mjs pickAt), svg: the overlay, hint: a line for the tools bar.
 export function annotations(state) {
@@ -124,9 +124,11 @@ function drawNote(group, note, project, size) {
   const x = left ? s.x - kNoteOffset.x : right ? s.x + kNoteOffset.x : Math.max(4, size.width - 7 - width);
   const above = s.y + kNoteOffset.y - (lines.length - 1) * kLineHeight >= 16;
   const y = above ? s.y + kNoteOffset.y - (lines.length - 1) * kLineHeight : s.y - kNoteOffset.y;
-  group.append(svgElement('line', { x1: s.x, y1: s.y, x2: x, y2: above ? y + 4 + (lines.length - 1) * kLineHeight : y - 12, class: 'note-leader' }));
-  group.append(svgElement('circle', { cx: s.x, cy: s.y, r: 4, class: 'note-point' }));
-  const text = svgElement('text', { x: left ? x - 3 : x + 3, y, class: 'note-label' });
+  // A note a surface hides from the camera (notes.mjs checkNotesDepth) is drawn faded.
+  const behind = note.behind ? ' behind' : '';
+  group.append(svgElement('line', { x1: s.x, y1: s.y, x2: x, y2: above ? y + 4 + (lines.length - 1) * kLineHeight : y - 12, class: `note-leader${behind}` }));
+  group.append(svgElement('circle', { cx: s.x, cy: s.y, r: 4, class: `note-point${behind}` }));
+  const text = svgElement('text', { x: left ? x - 3 : x + 3, y, class: `note-label${behind}` });
   if (left) text.setAttribute('text-anchor', 'end');
   const title = svgElement('title');
   title.textContent = note.text;  // text, never markup: notes come from links
