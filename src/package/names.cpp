@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "osteon/io.hpp"
@@ -430,6 +431,16 @@ Result<Names> parse_names(const std::vector<uint8_t>& bytes, const std::string& 
   }
   OSTEON_RETURN_IF_ERROR(check_names(path, listed, &out));
   return out;
+}
+
+const DisplayName* find_display_name(const Names& names, const Mesh& part) {
+  auto it = names.parts.find(stem_of(part.name));
+  if (it == names.parts.end() && part.label > 0) it = names.parts.find(std::to_string(part.label));
+  return it == names.parts.end() ? nullptr : &it->second;
+}
+
+DisplayName* find_display_name(Names& names, const Mesh& part) {
+  return const_cast<DisplayName*>(find_display_name(std::as_const(names), part));
 }
 
 }  // namespace osteon::detail

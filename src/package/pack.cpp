@@ -583,7 +583,6 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
   std::stable_sort(stream.begin(), stream.end(),
                    [&](size_t a, size_t b) { return area_of[a] > area_of[b]; });
   *chunk_data = chunk_streams(stream, chunk_bytes, &encoded->components, &manifest.chunks);
-  const std::map<std::string, detail::DisplayName>& names = names_file.parts;
   manifest.languages = names_file.languages;
   // The region tree: one group per distinct path prefix, in the order the parts first reach it,
   // each after its parent; a group's names in other languages are the first ones given.
@@ -600,13 +599,15 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     }
     return parent;
   };
+  std::vector<const detail::DisplayName*> named_of(parts.size());
+  for (size_t p = 0; p < parts.size(); ++p) {
+    named_of[p] = detail::find_display_name(names_file, parts[p]);
+  }
   // Derived paths first, in their rank order, so that the tree reads head to toe; the names
   // file's own paths follow in the file's order.
   std::vector<const detail::DisplayName*> ranked;
-  for (const Mesh& mesh : parts) {
-    auto named = names.find(detail::stem_of(mesh.name));
-    if (named == names.end() && mesh.label > 0) named = names.find(std::to_string(mesh.label));
-    if (named != names.end() && !named->second.path.empty()) ranked.push_back(&named->second);
+  for (const detail::DisplayName* named : named_of) {
+    if (named != nullptr && !named->path.empty()) ranked.push_back(named);
   }
   std::stable_sort(ranked.begin(), ranked.end(),
                    [](const detail::DisplayName* a, const detail::DisplayName* b) {
@@ -617,18 +618,16 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     ManifestPart part;
     part.name = parts[p].name;
     part.display_name = parts[p].name;
-    auto named = names.find(detail::stem_of(parts[p].name));
-    if (named == names.end() && parts[p].label > 0)
-      named = names.find(std::to_string(parts[p].label));
-    if (named != names.end()) {
-      if (!named->second.name.empty()) part.display_name = named->second.name;
-      part.group = named->second.group;
-      part.names = named->second.names;
-      part.system = named->second.system;
-      if (!named->second.path.empty()) {
-        part.path = add_path(named->second.path);
+    const detail::DisplayName* named = named_of[p];
+    if (named != nullptr) {
+      if (!named->name.empty()) part.display_name = named->name;
+      part.group = named->group;
+      part.names = named->names;
+      part.system = named->system;
+      if (!named->path.empty()) {
+        part.path = add_path(named->path);
         part.group.clear();
-        for (const detail::GroupName& g : named->second.path) {
+        for (const detail::GroupName& g : named->path) {
           part.group += (part.group.empty() ? "" : " / ") + g.name;
         }
       }
@@ -638,9 +637,9 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
     part.prototype = r.prototype_of[p];
     part.has_color = parts[p].has_color;
     part.color = parts[p].color;
-    if (named != names.end() && named->second.has_color) {
+    if (named != nullptr && named->has_color) {
       part.has_color = true;
-      part.color = named->second.color;
+      part.color = named->color;
     }
     manifest.parts.push_back(std::move(part));
   }

@@ -68,6 +68,11 @@ struct Names {
 /// group name or a path deeper than kMaxGroupDepth.
 Result<Names> read_names(const std::string& path);
 
+/// The names-file entry of `part`: by its file stem, else (a label volume's part) by its label
+/// value; nullptr when there is none.
+const DisplayName* find_display_name(const Names& names, const Mesh& part);
+DisplayName* find_display_name(Names& names, const Mesh& part);
+
 /// read_names on a names file's bytes, already in memory: the same forms and checks, with
 /// `source` (the file's name) starting every error message. Errors: kInvalidData as read_names.
 /// A part's path has at most kMaxGroupDepth groups, each named and none twice; the languages are

@@ -172,11 +172,8 @@ Status derive_regions(const std::string& source, const std::vector<Mesh>& parts,
   // its label value there, so the derivation fills that entry.
   for (size_t p = 0; p < parts.size(); ++p) {
     if (placed[p].path.empty()) continue;
-    auto it = names->parts.find(stems[p]);
-    if (it == names->parts.end() && parts[p].label > 0) {
-      it = names->parts.find(std::to_string(parts[p].label));
-    }
-    DisplayName& entry = it != names->parts.end() ? it->second : names->parts[stems[p]];
+    DisplayName* found = find_display_name(*names, parts[p]);
+    DisplayName& entry = found != nullptr ? *found : names->parts[stems[p]];
     if (entry.path.empty()) {
       for (const std::string& g : placed[p].path) entry.path.push_back({g, {}});
       entry.rank = placed[p].rank;

@@ -160,16 +160,6 @@ function setPartStyle(state, { colors = null, opacity = null } = {}) {
   return true;
 }
 
-/// A Promise of the renderer's answer to a pick at `ndc`, through see-through parts with `xray`
-/// (window.osteon.pickAt).
-function pickWith(state, ndc, xray) {
-  const before = state.xrayPick;
-  state.xrayPick = xray;
-  const answer = pickAt(state, ndc);  // sends at once
-  state.xrayPick = before;
-  return answer;
-}
-
 /// A view asked for before or after the manifest was read: { camera } (parseCamera's) or
 /// { view } (parseViewState's), with the messages of its parse. Applied now if it can be, else
 /// once the manifest is read; what cannot be used is reported ('osteon: view: ...').
@@ -256,7 +246,7 @@ export function createViewer({ host, root, boot, budget = {}, background, syncHa
     measure: (...points) => measure(state, ...points),
     measureAt: async (...ndcs) => measureHits(state, await Promise.all(ndcs.map((ndc) => pickAt(state, ndc)))),
     setPartStyle: (style) => setPartStyle(state, style),
-    pickAt: (ndc, { xray = false } = {}) => pickWith(state, ndc, xray),
+    pickAt: (ndc, { xray = false } = {}) => pickAt(state, ndc, { xray }),
     addNote: (note) => addNote(state, note),
     notes: () => annotationsExport(state),
   });

@@ -57,9 +57,7 @@ export function addNote(state, { point, part, text } = {}) {
   }
   const note = { p: roundPoint(manifest, point), part: partIdOf(manifest, part), text: body };
   a.notes.push(note);
-  drawOverlay(state);
-  checkNotesDepth(state);
-  viewChanged(state);  // the share link carries the notes
+  viewChanged(state);  // redraws the overlay, checks the notes' depth; the share link carries them
   return noteView(manifest, note);
 }
 
@@ -91,8 +89,7 @@ export function clearNotes(state) {
   const a = annotations(state);
   if (!a.notes.length) return false;
   a.notes = [];
-  drawOverlay(state);
-  viewChanged(state);
+  viewChanged(state);  // redraws the overlay
   return true;
 }
 

@@ -22,22 +22,23 @@ function pick(state, clientX, clientY) {
 }
 
 /// Asks the renderer for the ray through `ndc`; returns the pick's id.
-function castRay(state, ndc, quiet = false) {
+function castRay(state, ndc, { quiet = false, xray = state.xrayPick } = {}) {
   state.camera.updateMatrixWorld();
   sendCamera(state);  // the ray is cast from the camera as it is now, not as of the last frame
   // A quiet pick (negative ids) is no later pick for a tap's answer to give way to.
   const id = quiet ? -(state.quietPicks = (state.quietPicks ?? 0) + 1) : ++state.pickSeq;
-  send(state, { type: 'pick', id, ndc, xray: state.xrayPick });
+  send(state, { type: 'pick', id, ndc, xray });
   return id;
 }
 
 /// A pick at `ndc` ([x, y], normalized device coordinates) that neither selects nor feeds a tool:
 /// a Promise of the renderer's 'picked' answer ({ part, point, normal }), null before the
-/// manifest is read (window.osteon.measureAt). `quiet`: a pick of the viewer's own (notes.mjs
-/// checkNotesDepth) that leaves the taps' sequence alone.
-export function pickAt(state, ndc, { quiet = false } = {}) {
+/// manifest is read (window.osteon.measureAt). Options: `quiet`, a pick of the viewer's own
+/// (notes.mjs checkNotesDepth) that leaves the taps' sequence alone; `xray` (default: the
+/// panel's x-ray picking).
+export function pickAt(state, ndc, options = {}) {
   if (!state.manifest || !state.link) return Promise.resolve(null);
-  const id = castRay(state, ndc, quiet);
+  const id = castRay(state, ndc, options);
   return new Promise((resolve) => annotations(state).pickWaiters.set(id, resolve));
 }
 
