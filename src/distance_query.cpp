@@ -241,7 +241,12 @@ ClosestPoint DistanceQuery::closest(const Vec3d& p) const {
 }
 
 ClosestPoint DistanceQuery::closest(const Vec3d& p, uint32_t hint) const {
+  return closest(p, hint, -1.0);
+}
+
+ClosestPoint DistanceQuery::closest(const Vec3d& p, uint32_t hint, double enough) const {
   const Impl& tree = *impl_;
+  const double enough2 = enough < 0 ? -1.0 : enough * enough;
   // Boxes are tested in float, for speed: the query point rounded to float and the float box
   // subtracted are each within 2^-24 of their magnitude, so a box distance is within
   // 2^-22 (|p| + the mesh's largest coordinate) of the exact one. A box is skipped only when it is
@@ -279,6 +284,8 @@ ClosestPoint DistanceQuery::closest(const Vec3d& p, uint32_t hint) const {
     }
   };
   if (hint < tree.slots.size()) visit(tree.slots[hint]);
+  // Near enough: a box is only ever opened below prune2, so an empty stack ends the search.
+  auto near_enough = [&] { return best2 <= enough2; };
 
   // Depth-first, nearer child first; each entry keeps its box's squared distance so that a box
   // is dropped, when popped, if a nearer triangle was found since it was pushed. The tree is
@@ -289,13 +296,14 @@ ClosestPoint DistanceQuery::closest(const Vec3d& p, uint32_t hint) const {
   };
   Entry stack[128];
   int top = 0;
-  stack[top++] = {box_distance2(tree.nodes[0], q), 0};
+  if (!near_enough()) stack[top++] = {box_distance2(tree.nodes[0], q), 0};
   while (top > 0) {
     Entry e = stack[--top];
     if (e.d2 > prune2) continue;
     const Node& node = tree.nodes[e.node];
     if (node.count > 0) {
       for (uint32_t s = node.first; s < node.first + node.count; ++s) visit(s);
+      if (near_enough()) break;
       continue;
     }
     uint32_t near = node.first, far = node.first + 1;

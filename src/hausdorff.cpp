@@ -261,7 +261,7 @@ struct Progress {
 
 // Measures every sample of `plan` against `target`.
 OneSidedDistance measure(const SamplePlan& plan, const DistanceQuery& target, double zero_below,
-                         const Progress& progress) {
+                         bool max_only, const Progress& progress) {
   uint64_t count = plan.total();
   uint64_t blocks = (count + kBlock - 1) / kBlock;
   std::vector<BlockResult> results(blocks);
@@ -275,7 +275,10 @@ OneSidedDistance measure(const SamplePlan& plan, const DistanceQuery& target, do
                           uint64_t end = std::min(count, (block + 1) * kBlock);
                           for (uint64_t g = block * kBlock; g < end; ++g) {
                             Vec3d p = sample_point(plan, g);
-                            ClosestPoint c = target.closest(p, hint);
+                            // A sample within the largest distance so far cannot change it.
+                            ClosestPoint c =
+                                max_only ? target.closest(p, hint, std::max(r.max, zero_below))
+                                         : target.closest(p, hint);
                             hint = c.triangle;
                             double d = c.distance <= zero_below ? 0.0 : c.distance;
                             r.sum += d;
@@ -309,8 +312,8 @@ OneSidedDistance measure(const SamplePlan& plan, const DistanceQuery& target, do
   out.vertex_samples = plan.vertex_samples;
   out.edge_samples = plan.edge_samples;
   out.face_samples = plan.face_samples;
-  out.mean = count > 0 ? sum / double(count) : 0.0;
-  out.rms = count > 0 ? std::sqrt(sum2 / double(count)) : 0.0;
+  out.mean = count > 0 && !max_only ? sum / double(count) : 0.0;
+  out.rms = count > 0 && !max_only ? std::sqrt(sum2 / double(count)) : 0.0;
   out.diagonal = plan.diagonal;
   return out;
 }
@@ -340,7 +343,7 @@ Result<OneSidedDistance> one_sided_distance(const Mesh& sampled, const DistanceQ
     SamplePlan plan = make_plan(sampled, options);
     double largest = std::max(plan.largest_coordinate, largest_coordinate_of(target.bounds()));
     Progress progress{&options.progress, 0, plan.total()};
-    return measure(plan, target, zero_below(largest), progress);
+    return measure(plan, target, zero_below(largest), options.max_only, progress);
   });
 }
 
@@ -356,8 +359,9 @@ Result<HausdorffReport> hausdorff(const Mesh& a, const Mesh& b, const HausdorffO
     double floor = zero_below(std::max(on_a.largest_coordinate, on_b.largest_coordinate));
     uint64_t total = on_a.total() + on_b.total();
     HausdorffReport report;
-    report.forward = measure(on_a, to_b, floor, {&options.progress, 0, total});
-    report.backward = measure(on_b, to_a, floor, {&options.progress, on_a.total(), total});
+    report.forward = measure(on_a, to_b, floor, options.max_only, {&options.progress, 0, total});
+    report.backward =
+        measure(on_b, to_a, floor, options.max_only, {&options.progress, on_a.total(), total});
 
     const OneSidedDistance& f = report.forward;
     const OneSidedDistance& r = report.backward;

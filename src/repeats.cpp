@@ -461,6 +461,7 @@ std::optional<double> moved_hausdorff(const Prototype& p, const Member& m,
                                       const RepeatOptions& options) {
   HausdorffOptions forward_options;
   forward_options.threads = 1;
+  forward_options.max_only = true;  // only the largest distance decides
   forward_options.samples = hausdorff_samples(*p.mesh, options);
   HausdorffOptions backward_options = forward_options;
   backward_options.samples = hausdorff_samples(*m.mesh, options);

@@ -182,6 +182,60 @@ TEST(Hausdorff, DistanceQueryOnALargeMeshMatchesBruteForce) {
   }
 }
 
+TEST(Hausdorff, NearEnoughQueriesStopEarlyOrAreExact) {
+  std::mt19937_64 rng(17);
+  for (const auto& [category, mesh] : test::mesh_categories()) {
+    SCOPED_TRACE(category);
+    Result<DistanceQuery> query = DistanceQuery::build(mesh);
+    ASSERT_TRUE(query.ok()) << query.status().message();
+    Aabb box = query->bounds();
+    std::uniform_real_distribution<double> x(box.min.x - 1, box.max.x + 1);
+    std::uniform_real_distribution<double> y(box.min.y - 1, box.max.y + 1);
+    std::uniform_real_distribution<double> z(box.min.z - 1, box.max.z + 1);
+    std::uniform_real_distribution<double> enough(0, 2);
+    for (int i = 0; i < 300; ++i) {
+      const Vec3d p{x(rng), y(rng), z(rng)};
+      const double exact = brute_mesh_distance(mesh, p);
+      const double e = enough(rng);
+      const ClosestPoint got = query->closest(p, ClosestPoint::kNoTriangle, e);
+      ASSERT_LT(got.triangle, mesh.triangle_count());
+      EXPECT_NEAR(length(p - got.point), got.distance, 1e-9 * std::max(1.0, exact));
+      if (exact > e) {
+        ASSERT_NEAR(got.distance, exact, 1e-9 * std::max(1.0, exact));  // none near enough
+      } else {
+        ASSERT_LE(got.distance, e);  // stopped at a near-enough triangle
+        ASSERT_GE(got.distance, exact - 1e-9 * std::max(1.0, exact));
+      }
+    }
+  }
+}
+
+TEST(Hausdorff, MaxOnlyGivesTheSameMaxBitForBit) {
+  Phantom phantom = make_phantom({.seed = 3, .detail = 3});
+  const Mesh& a = phantom.scene.parts[0];
+  Mesh b = a;
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> noise(-0.05f, 0.05f);
+  for (Vec3& p : b.positions) p = {p.x + noise(rng), p.y + noise(rng), p.z + noise(rng)};
+  HausdorffOptions options;
+  options.samples = 60000;
+  const HausdorffReport full = measure(a, b, options);
+  options.max_only = true;
+  for (int threads : {1, 2}) {
+    options.threads = threads;
+    const HausdorffReport fast = measure(a, b, options);
+    for (auto [x, y] : {std::pair{&fast.forward, &full.forward},
+                        std::pair{&fast.backward, &full.backward}}) {
+      EXPECT_EQ(x->max, y->max);
+      EXPECT_EQ(x->max_at, y->max_at);
+      EXPECT_EQ(x->samples, y->samples);
+      EXPECT_EQ(x->mean, 0.0);
+      EXPECT_EQ(x->rms, 0.0);
+    }
+    EXPECT_EQ(fast.symmetric.max, full.symmetric.max);
+  }
+}
+
 // ---- analytic cases --------------------------------------------------------------------------
 
 TEST(Hausdorff, UnitSphereAgainstSphereOfRadius101) {

@@ -71,6 +71,11 @@ class DistanceQuery {
   /// the answer of a nearby earlier query. The distance is the same as without a hint up to
   /// double rounding; where two triangles are equally near, the triangle and point may differ.
   ClosestPoint closest(const Vec3d& p, uint32_t hint) const;
+  /// The same, but done as soon as a triangle within `enough` of `p` is found: that triangle is
+  /// the answer then (its distance <= enough, not always the nearest). When no triangle is that
+  /// near, the answer is the nearest, as closest(p, hint) gives it. For the largest distance of
+  /// many points, with `enough` the largest so far: most points end at their first triangle.
+  ClosestPoint closest(const Vec3d& p, uint32_t hint, double enough) const;
 
   size_t triangle_count() const;
   /// The box of the mesh's triangles.
@@ -110,6 +115,11 @@ struct HausdorffOptions {
   bool sample_edges = true;
   bool sample_faces = true;
   EdgeSampling edge_sampling = EdgeSampling::kEvenlySpaced;
+  /// Only the largest distance is wanted: a sample is measured only as far as it could raise the
+  /// largest so far (DistanceQuery::closest with `enough`). max, max_at and max_closest are the
+  /// same as without it, bit for bit; mean and rms are left 0. Several times faster where the
+  /// surfaces are close.
+  bool max_only = false;
   /// Worker threads; 0 (or more than the cores): every core.
   int threads = 0;
   /// Called on the calling thread after each slice of about 260k samples with the samples done

@@ -78,7 +78,9 @@ Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels)
   OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_full, DistanceQuery::build(full));
   HausdorffOptions level_samples;
   level_samples.samples_per_face = 3;
+  level_samples.max_only = true;  // the level's error is the largest distance alone
   HausdorffOptions full_vertices;
+  full_vertices.max_only = true;
   full_vertices.sample_edges = false;
   full_vertices.sample_faces = false;
   for (DetailLevel& level : levels) {
