@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -8,6 +9,7 @@
 #include <cassert>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <limits>
@@ -109,6 +111,21 @@ NotLabels to_label(T x, uint32_t* label) {
     *label = static_cast<uint32_t>(x);
   }
   return NotLabels::kNo;
+}
+
+// Asks for transparent huge pages under a large buffer not yet written: a 2 GB label volume
+// otherwise takes half a million page faults, a fifth of its reading time. Only a hint.
+void advise_huge_pages(void* data, size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr uintptr_t kHuge = uintptr_t{2} << 20;
+  if (bytes < 32 * kHuge) return;
+  const uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
+  const uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~(kHuge - 1);
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+  (void)data;
+  (void)bytes;
+#endif
 }
 
 // Calls f(T{}) with T the C++ type of `type`.
@@ -274,7 +291,10 @@ class Decoder {
         layout_.type == VoxelType::kUint8 || layout_.type == VoxelType::kInt8 ? 256 : 65536;
     ids_.assign(direct, kUnassigned);
     ids_[0] = 0;
-    if (reserve_all_) volume_->voxels.reserve(static_cast<size_t>(voxel_count_));
+    if (reserve_all_) {
+      volume_->voxels.reserve(static_cast<size_t>(voxel_count_));
+      advise_huge_pages(volume_->voxels.data(), volume_->voxels.capacity());
+    }
     return visit_type(layout_.type, [&](auto tag) {
       using T = decltype(tag);
       return each_slab([&](const uint8_t* bytes, uint64_t first, uint64_t count) {
@@ -287,6 +307,9 @@ class Decoder {
   template <class T>
   Status label_slab(const uint8_t* bytes, uint64_t first, uint64_t count) {
     OSTEON_RETURN_IF_ERROR(grow(first + count));
+    if constexpr (sizeof(T) == 1) {
+      if (stride_ == 1) return byte_label_slab<T>(bytes, first, count);
+    }
     for (uint64_t v = 0; v < count; ++v) {
       uint32_t label = 0;
       NotLabels why = to_label(load_value<T>(bytes + v * stride_, swap_), &label);
@@ -295,6 +318,35 @@ class Decoder {
       OSTEON_RETURN_IF_ERROR(id_of(label, &id));
       if (stop_) return {};
       store(first + v, id);
+    }
+    return {};
+  }
+
+  // One byte a voxel (most label volumes): each byte's id comes from a table, and only a value
+  // not seen before goes through to_label() and id_of(), so ids are given in the order the values
+  // first appear, as the general loop gives them. 256 values need at most 256 ids: one byte out.
+  // Counted in four histograms, so that a run of equal bytes does not wait on its own increments.
+  template <class T>
+  Status byte_label_slab(const uint8_t* bytes, uint64_t first, uint64_t count) {
+    assert(volume_->bytes_per_voxel == 1 && ids_.size() >= 256);
+    uint8_t* const out = volume_->voxels.data() + first;
+    uint64_t histogram[4][256] = {};
+    for (uint64_t v = 0; v < count; ++v) {
+      const uint8_t x = bytes[v];
+      uint32_t id = ids_[x];
+      if (id == kUnassigned) [[unlikely]] {
+        uint32_t label = 0;
+        const NotLabels why = to_label(static_cast<T>(x), &label);
+        if (why != NotLabels::kNo) return not_labels(why);
+        OSTEON_RETURN_IF_ERROR(id_of(label, &id));
+        if (stop_) return {};
+      }
+      out[v] = static_cast<uint8_t>(id);
+      ++histogram[v & 3][x];
+    }
+    for (uint32_t x = 0; x < 256; ++x) {
+      const uint64_t n = histogram[0][x] + histogram[1][x] + histogram[2][x] + histogram[3][x];
+      if (n != 0) counts_[ids_[x]] += n;
     }
     return {};
   }
@@ -406,6 +458,7 @@ class Decoder {
       const uint64_t all = voxel_count_ * volume_->bytes_per_voxel;
       out.reserve(
           static_cast<size_t>(std::min(all, std::max(bytes, 2 * uint64_t{out.capacity()}))));
+      advise_huge_pages(out.data(), out.capacity());
     }
     out.resize(static_cast<size_t>(bytes));
     return {};
