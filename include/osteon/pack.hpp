@@ -48,7 +48,12 @@ struct PackOptions {
   double repeat_tolerance = 0;
   /// The largest component, in triangles. Parts with at most this many triangles stay whole;
   /// larger ones are segmented (segment() with SegmentOptions::max_triangles). 0: never segment.
-  uint32_t max_triangles = 20000;
+  /// kAutomaticPieces (the default): kPieceTrianglesWithLevels when components get levels of
+  /// detail, else kPieceTriangles (docs/DESIGN.md "Packing a skeleton" says why).
+  uint32_t max_triangles = kAutomaticPieces;
+  static constexpr uint32_t kAutomaticPieces = 0xFFFFFFFFu;
+  static constexpr uint32_t kPieceTriangles = 20000;
+  static constexpr uint32_t kPieceTrianglesWithLevels = 80000;
   /// Levels of detail (docs/FORMAT.md "Levels of detail"): every component with more than this
   /// many triangles also gets a chain of coarser levels, each about a quarter of the next, the
   /// coarsest first in the stream. 0: no levels.
