@@ -23,6 +23,7 @@
 #include "osteon/io.hpp"
 #include "osteon/pack.hpp"
 #include "osteon/package.hpp"
+#include "support/phantom.hpp"
 
 namespace osteon {
 namespace {
@@ -161,6 +162,52 @@ TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
       EXPECT_LE(d, 1.05 * recorded) << m.parts[p].name << " level " << level;
       EXPECT_GE(d, 0.25 * recorded) << m.parts[p].name << " level " << level;
     }
+  }
+}
+
+// A bone with islands (a label's stray fragments): a small closed island collapses to nothing
+// in one meshopt call, and a fragment far from the bone, dropped, is a level that far off. Each
+// island is simplified on its own and the smallest are kept, so every level still has each of
+// them, and what is recorded is what is measured.
+TEST(PackLevels, IslandsSurviveEveryLevel) {
+  Mesh bone = make_icosphere(5, 20.0f);  // 20,480 triangles
+  const Mesh fragment = make_icosphere(1, 1.0f);  // 80: simplified with its share
+  const Mesh speck = make_icosphere(0, 0.5f);     // 20: kept whole
+  const Vec3 far_away[] = {{200, 0, 0}, {0, -150, 40}};
+  for (int k = 0; k < 2; ++k) {
+    const Mesh& island = k == 0 ? fragment : speck;
+    const uint32_t base = static_cast<uint32_t>(bone.positions.size());
+    for (const Vec3& p : island.positions) {
+      bone.positions.push_back({p.x + far_away[k].x, p.y + far_away[k].y, p.z + far_away[k].z});
+    }
+    for (uint32_t i : island.indices) bone.indices.push_back(base + i);
+  }
+  bone.name = "islands";
+  const std::string dir = scratch_dir() + "/islands";
+  std::filesystem::create_directories(dir + "/in");
+  ASSERT_TRUE(write_mesh(dir + "/in/islands.ply", bone).ok());
+  PackOptions options;
+  options.output = dir + "/out";
+  ASSERT_TRUE(pack({dir + "/in"}, options).ok());
+  const Manifest m = read_manifest(options.output);
+  ASSERT_EQ(m.components.size(), 1u);
+  const ManifestComponent& c = m.components[0];
+  ASSERT_GE(c.levels.size(), 3u);
+  for (size_t level = 0; level < c.levels.size(); ++level) {
+    SCOPED_TRACE("level " + std::to_string(level));
+    const Mesh drawn = decode_level(options.output, m, c, level);
+    for (const Vec3& centre : far_away) {
+      size_t near = 0;
+      for (const Vec3& p : drawn.positions) {
+        const float dx = p.x - centre.x, dy = p.y - centre.y, dz = p.z - centre.z;
+        if (dx * dx + dy * dy + dz * dz < 4.0f) ++near;
+      }
+      EXPECT_GE(near, 4u) << "an island vanished";
+    }
+    EXPECT_LT(c.levels[level].error, 5.0) << "a level far off";
+    Result<HausdorffReport> measured = hausdorff(drawn, bone);
+    ASSERT_TRUE(measured.ok());
+    EXPECT_LE(measured->symmetric.max, 1.05 * c.levels[level].error);
   }
 }
 
