@@ -186,7 +186,11 @@ async function instrument(context, page, profile) {
       net.transfers.push([new URL(net.urls.get(key) ?? 'unknown:', 'http://x/').pathname, bytes, session ? 'worker' : 'page']);
     } else if (method === 'Network.loadingFailed') {
       net.inFlight.delete(key);
-      if (!params.canceled) net.failed.push(`${net.urls.get(key) ?? params.requestId}: ${params.errorText}`);
+      // ERR_CACHE_MISS answers a request made with cache: 'only-if-cached' (the viewer's offline
+      // worker asks the HTTP cache first, then the network): a question, not a failure.
+      if (!params.canceled && params.errorText !== 'net::ERR_CACHE_MISS') {
+        net.failed.push(`${net.urls.get(key) ?? params.requestId}: ${params.errorText}`);
+      }
     }
   };
   for (const method of ['Network.requestWillBeSent', 'Network.dataReceived', 'Network.loadingFinished', 'Network.loadingFailed']) {
@@ -207,18 +211,26 @@ async function instrument(context, page, profile) {
     });
     return reply;
   };
+  // The paused worker's settings go out together and it is resumed in the same breath: a target
+  // runs its commands in the order they were sent, so the settings are in force before it runs,
+  // and the pause is one round trip, not one per command (awaited one by one they held each
+  // worker 30-200 ms on a loaded machine, a start the peers' pages, which use no workers, never
+  // pay).
   cdp.on('Target.attachedToTarget', async (e) => {
     workers.set(e.sessionId, new Map());
-    for (const [method, params] of settings) await sendToWorker(e.sessionId, method, params);
+    const replies = settings.map(([method, params]) => sendToWorker(e.sessionId, method, params));
     if (cpuSetting) {
       // Chromium answers "Operation is only supported for pages, not workers": the slowdown
       // reaches the page's main thread only, which the report says.
-      const ok = await sendToWorker(e.sessionId, ...cpuSetting, (message) => { cpu.workerError ??= message; });
-      if (ok) cpu.workersAccepted += 1;
-      else cpu.workersRefused += 1;
+      replies.push(sendToWorker(e.sessionId, ...cpuSetting, (message) => { cpu.workerError ??= message; })
+        .then((ok) => {
+          if (ok) cpu.workersAccepted += 1;
+          else cpu.workersRefused += 1;
+        }));
     }
-    if (e.targetInfo.type === 'worker') await sendToWorker(e.sessionId, 'Runtime.evaluate', { expression: kWorkerInitScript });
-    await sendToWorker(e.sessionId, 'Runtime.runIfWaitingForDebugger');
+    if (e.targetInfo.type === 'worker') replies.push(sendToWorker(e.sessionId, 'Runtime.evaluate', { expression: kWorkerInitScript }));
+    replies.push(sendToWorker(e.sessionId, 'Runtime.runIfWaitingForDebugger'));
+    await Promise.all(replies);
   });
   cdp.on('Target.detachedFromTarget', (e) => {
     const pending = workers.get(e.sessionId);
