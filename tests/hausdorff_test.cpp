@@ -14,6 +14,7 @@
 #include <random>
 #include <regex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fixtures.hpp"
@@ -88,6 +89,18 @@ HausdorffReport measure(const Mesh& a, const Mesh& b, const HausdorffOptions& op
   Result<HausdorffReport> r = hausdorff(a, b, options);
   EXPECT_TRUE(r.ok()) << r.status().message();
   return r.ok() ? r.value() : HausdorffReport{};
+}
+
+/// A phantom bone (phantom seed `seed`, detail 3) and a copy with every coordinate moved by up to
+/// 0.05 (noise seed `noise_seed`).
+std::pair<Mesh, Mesh> phantom_and_noisy_copy(uint64_t seed, unsigned noise_seed) {
+  Phantom phantom = make_phantom({.seed = seed, .detail = 3});
+  Mesh a = phantom.scene.parts[0];
+  Mesh b = a;
+  std::mt19937 rng(noise_seed);
+  std::uniform_real_distribution<float> noise(-0.05f, 0.05f);
+  for (Vec3& p : b.positions) p = {p.x + noise(rng), p.y + noise(rng), p.z + noise(rng)};
+  return {std::move(a), std::move(b)};
 }
 
 // ---- closest point on a triangle -------------------------------------------------------------
@@ -211,12 +224,7 @@ TEST(Hausdorff, NearEnoughQueriesStopEarlyOrAreExact) {
 }
 
 TEST(Hausdorff, MaxOnlyGivesTheSameMaxBitForBit) {
-  Phantom phantom = make_phantom({.seed = 3, .detail = 3});
-  const Mesh& a = phantom.scene.parts[0];
-  Mesh b = a;
-  std::mt19937 rng(9);
-  std::uniform_real_distribution<float> noise(-0.05f, 0.05f);
-  for (Vec3& p : b.positions) p = {p.x + noise(rng), p.y + noise(rng), p.z + noise(rng)};
+  const auto [a, b] = phantom_and_noisy_copy(3, 9);
   HausdorffOptions options;
   options.samples = 60000;
   const HausdorffReport full = measure(a, b, options);
@@ -374,12 +382,7 @@ TEST(Hausdorff, SampleBudgetIsSplitLikeMeshLab) {
 }
 
 TEST(Hausdorff, SameSeedSameFiguresWhateverTheThreads) {
-  Phantom phantom = make_phantom({.seed = 1, .detail = 3});
-  const Mesh& a = phantom.scene.parts[0];
-  Mesh b = a;
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> noise(-0.05f, 0.05f);
-  for (Vec3& p : b.positions) p = {p.x + noise(rng), p.y + noise(rng), p.z + noise(rng)};
+  const auto [a, b] = phantom_and_noisy_copy(1, 5);
   HausdorffOptions options;
   options.samples = 100000;  // 25 blocks: several run on each thread
   options.seed = 42;
