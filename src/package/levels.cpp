@@ -64,23 +64,23 @@ uint32_t find_root(std::vector<uint32_t>& parent, uint32_t v) {
 
 /// meshopt_simplify on a compact copy of `indices` (triangles of `mesh`) to about `target`
 /// triangles within `error` (absolute), border locked; appends the result, in mesh's vertex ids.
+/// `remap` has one UINT32_MAX per mesh vertex and is left so (only the island's entries are
+/// touched), so that many islands cost their own size, not the mesh's each.
 void simplify_into(const Mesh& mesh, const std::vector<uint32_t>& indices, uint64_t target,
-                   float error, std::vector<uint32_t>* out) {
+                   float error, std::vector<uint32_t>& remap, std::vector<uint32_t>* out) {
   std::vector<uint32_t> local_of;  // compact id -> mesh vertex
   std::vector<uint32_t> local(indices.size());
   std::vector<Vec3> positions;
-  {
-    std::vector<uint32_t> remap(mesh.positions.size(), UINT32_MAX);
-    for (size_t i = 0; i < indices.size(); ++i) {
-      const uint32_t v = indices[i];
-      if (remap[v] == UINT32_MAX) {
-        remap[v] = static_cast<uint32_t>(positions.size());
-        positions.push_back(mesh.positions[v]);
-        local_of.push_back(v);
-      }
-      local[i] = remap[v];
+  for (size_t i = 0; i < indices.size(); ++i) {
+    const uint32_t v = indices[i];
+    if (remap[v] == UINT32_MAX) {
+      remap[v] = static_cast<uint32_t>(positions.size());
+      positions.push_back(mesh.positions[v]);
+      local_of.push_back(v);
     }
+    local[i] = remap[v];
   }
+  for (uint32_t v : local_of) remap[v] = UINT32_MAX;
   const float scale = meshopt_simplifyScale(&positions[0].x, positions.size(), sizeof(Vec3));
   std::vector<uint32_t> kept(local.size());
   const size_t count = meshopt_simplify(
@@ -117,6 +117,7 @@ std::vector<uint32_t> simplify_step(const Mesh& finer, uint64_t target, float er
   }
   std::vector<uint32_t> kept;
   kept.reserve(3 * target);
+  std::vector<uint32_t> remap(finer.positions.size(), UINT32_MAX);
   for (const std::vector<uint32_t>& island : islands) {
     const uint64_t n = island.size() / 3;
     if (n < kKeptIsland) {
@@ -124,7 +125,7 @@ std::vector<uint32_t> simplify_step(const Mesh& finer, uint64_t target, float er
       continue;
     }
     const uint64_t share = std::max<uint64_t>(kKeptIsland / 2, n * target / triangles);
-    simplify_into(finer, island, share, error, &kept);
+    simplify_into(finer, island, share, error, remap, &kept);
   }
   return kept;
 }
