@@ -28,7 +28,7 @@ import { PerspectiveCamera } from 'three';
 
 import { kFovDeg } from './camera.mjs';
 import { wireKeyboard } from './keyboard.mjs';
-import { findPart, parseManifest } from './manifest.mjs';
+import { findPart, parseManifestSliced } from './manifest.mjs';
 import { measure, measureHits } from './measure.mjs';
 import { addNote, annotationsExport, checkNotesDepth, wireNotes } from './notes.mjs';
 import { drawOverlay, wireOverlay } from './overlay.mjs';
@@ -39,6 +39,7 @@ import {
 import { pickAt, picked, wirePicking } from './picking.mjs';
 import { applyView, captureView, encodeViewState, parseViewState } from './share.mjs';
 import { createViewerState, emit, exposeState } from './state.mjs';
+import { nextTask } from './stream.mjs';
 import { componentsDrawn, componentsFailed, finish, levelFailed, levelsShown, rendererFailed, startLog, startStream } from './streaming.mjs';
 import { fitAll, frameDrawn, resize, screenBoundsOf, screenPositionOf, sendParts, setBackground, setCameraView, startControls } from './view.mjs';
 
@@ -89,7 +90,9 @@ async function startPageRenderer(state) {
 async function readManifest(state) {
   const { boot } = state;
   try {
-    state.manifest = parseManifest(JSON.parse(await boot.manifest));
+    const json = JSON.parse(await boot.manifest);
+    await nextTask();
+    state.manifest = await parseManifestSliced(json, nextTask);
     return true;
   } catch (e) {
     const message = String(e?.message ?? e);
@@ -129,7 +132,11 @@ async function main(state) {
   // first, it would hold back the worker's start, and so its WebGL context, by as long.
   if (boot.offscreen) await Promise.race([boot.rendererStarted, new Promise((resolve) => setTimeout(resolve, kRendererStartWaitMs))]);
   if (state.destroyed || !(await readManifest(state)) || state.destroyed) return;
+  // A task each for the fetch log and the levels' planner, the controls and the panel, and the
+  // stream: with thousands of components each is tens of milliseconds on a slow phone.
   startLog(state);
+  await nextTask();
+  if (state.destroyed) return;
   startControls(state);
   buildGroups(state);
   updateClip(state);
@@ -140,6 +147,8 @@ async function main(state) {
   state.startView = captureView(state);
   updateStats(state);
   updateStatus(state);
+  await nextTask();
+  if (state.destroyed) return;
   state.onReady?.();
 
   // What the renderer said before the manifest was read here, then everything after, as it comes.

@@ -38,12 +38,25 @@ function isObject(v) {
   return typeof v === 'object' && v !== null && !Array.isArray(v);
 }
 
+/// Whether `v` is a number the manifest may hold: finite, also as a float (every number of the
+/// manifest is drawn in float and written as the nearest float: one that rounds to a float's
+/// infinity would be drawn, and written back, as infinity).
+function isNumber(v) {
+  return typeof v === 'number' && Number.isFinite(v) && Number.isFinite(Math.fround(v));
+}
+
 function number(v, where) {
   if (typeof v !== 'number' || !Number.isFinite(v)) fail(where, `expected a finite number, got ${JSON.stringify(v)}`);
-  // Every number of the manifest is a float (drawn in float, written as the nearest float): one
-  // that rounds to a float's infinity would be drawn, and written back, as infinity.
   if (!Number.isFinite(Math.fround(v))) fail(where, `${JSON.stringify(v)} is beyond a float's range`);
   return v;
+}
+
+/// `n` numbers `v` (an array), checked; a field's name is made only for the message of a bad one,
+/// since a dense skeleton's manifest holds tens of thousands of them.
+function numbers(v, n, where, expected) {
+  if (!Array.isArray(v) || v.length !== n) fail(where, expected);
+  for (let i = 0; i < n; ++i) if (!isNumber(v[i])) number(v[i], `${where}[${i}]`);
+  return v.slice();
 }
 
 function count(v, where) {
@@ -57,8 +70,7 @@ function string(v, where) {
 }
 
 function vec3(v, where) {
-  if (!Array.isArray(v) || v.length !== 3) fail(where, 'expected [x, y, z]');
-  return v.map((x, i) => number(x, `${where}[${i}]`));
+  return numbers(v, 3, where, 'expected [x, y, z]');
 }
 
 /// An sRGB colour [r, g, b], each 0..1.
@@ -171,19 +183,26 @@ export function transformBox(local, m) {
   const min = [Infinity, Infinity, Infinity];
   const max = [-Infinity, -Infinity, -Infinity];
   for (let corner = 0; corner < 8; ++corner) {
-    const p = [0, 1, 2].map((i) => ((corner >> i) & 1 ? local.max[i] : local.min[i]));
+    const x = corner & 1 ? local.max[0] : local.min[0];
+    const y = corner & 2 ? local.max[1] : local.min[1];
+    const z = corner & 4 ? local.max[2] : local.min[2];
     for (let r = 0; r < 3; ++r) {
-      const w = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
-      min[r] = Math.min(min[r], w);
-      max[r] = Math.max(max[r], w);
+      const w = m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r];
+      if (w < min[r]) min[r] = w;
+      if (w > max[r]) max[r] = w;
     }
   }
   return { min, max };
 }
 
+/// `a` grown to hold `b` (in place; a copy of `b` when `a` is null).
 function unionBox(a, b) {
   if (!a) return { min: [...b.min], max: [...b.max] };
-  return { min: a.min.map((v, i) => Math.min(v, b.min[i])), max: a.max.map((v, i) => Math.max(v, b.max[i])) };
+  for (let i = 0; i < 3; ++i) {
+    if (b.min[i] < a.min[i]) a.min[i] = b.min[i];
+    if (b.max[i] > a.max[i]) a.max[i] = b.max[i];
+  }
+  return a;
 }
 
 /// The stream `v` names ({chunk, offset, bytes}), checked against the chunks.
@@ -239,6 +258,34 @@ function levelsOf(c, where, chunks, component) {
 /// Each instance gains `mirror` recomputed from its matrix's determinant (what decides the
 /// winding on screen), `index` (in the instances drawn) and `source` (in the manifest's list). Throws Error('osteon: manifest.json: <field>: <what>').
 export function parseManifest(json) {
+  const steps = manifestSteps(json);
+  for (;;) {
+    const step = steps.next();
+    if (step.done) return step.value;
+  }
+}
+
+/// parseManifest in slices: `pause()` is awaited between slices of about `sliceMs` (default 20)
+/// ms, so a page can read a dense skeleton's manifest (thousands of components and instances,
+/// a few hundred milliseconds on a slow phone) without one long task. Same result, same errors.
+export async function parseManifestSliced(json, pause, { sliceMs = 20, now = () => performance.now() } = {}) {
+  const steps = manifestSteps(json);
+  let start = now();
+  for (;;) {
+    const step = steps.next();
+    if (step.done) return step.value;
+    if (now() - start >= sliceMs) {
+      await pause();
+      start = now();
+    }
+  }
+}
+
+/// The entries checked between two chances to pause (manifestSteps yields after each group).
+const kEntriesPerStep = 64;
+
+/// parseManifest's work, yielding (nothing) every kEntriesPerStep components or instances.
+function* manifestSteps(json) {
   if (!isObject(json)) fail('top level', 'expected a JSON object');
   if (json.format !== 'osteon-package') fail('format', `expected "osteon-package", got ${JSON.stringify(json.format)}`);
   if (json.version !== 2 && json.version !== 3) fail('version', `this viewer reads versions 2 and 3, the package is version ${JSON.stringify(json.version)}`);
@@ -288,7 +335,10 @@ export function parseManifest(json) {
   }
 
   const componentById = new Map();
-  const components = json.components.map((c, i) => {
+  const components = [];
+  for (let i = 0; i < json.components.length; ++i) {
+    if (i % kEntriesPerStep === kEntriesPerStep - 1) yield;
+    const c = json.components[i];
     const where = `components[${i}]`;
     if (!isObject(c)) fail(where, 'expected an object');
     const id = string(c.id, `${where}.id`);
@@ -314,14 +364,18 @@ export function parseManifest(json) {
     component.levels.forEach((level, n) => { level.level = n; });
     component.first = component.levels[0];
     componentById.set(id, component);
-    return component;
-  });
+    components.push(component);
+  }
 
   const instancesOf = new Map(components.map((c) => [c.id, []]));
   const instancesOfPart = parts.map(() => []);
   const partBounds = parts.map(() => null);
   const refused = [];
-  const instances = json.instances.map((inst, i) => {
+  const asFloat = new Float32Array(16);  // a matrix as drawn
+  const instances = [];
+  for (let i = 0; i < json.instances.length; ++i) {
+    if (i % kEntriesPerStep === kEntriesPerStep - 1) yield;
+    const inst = json.instances[i];
     const where = `instances[${i}]`;
     if (!isObject(inst)) fail(where, 'expected an object');
     const part = count(inst.part, `${where}.part`);
@@ -335,13 +389,14 @@ export function parseManifest(json) {
     const infinite = inst.matrix.findIndex((v) => typeof v === 'number' && !Number.isFinite(v));
     if (infinite >= 0) {
       refused.push(`osteon: manifest.json: ${where}.matrix[${infinite}]: ${inst.matrix[infinite]}, not a finite number: the instance is not drawn`);
-      return null;
+      continue;
     }
-    const matrix = inst.matrix.map((v, k) => number(v, `${where}.matrix[${k}]`));
+    const matrix = numbers(inst.matrix, 16, `${where}.matrix`, 'expected 16 numbers');
     const det = determinant3(matrix);
     // Singular in float is singular as drawn (and as written back: entries below a float's
     // smallest step are written as 0).
-    if (!(Math.abs(det) > 0) || !(Math.abs(determinant3(matrix.map(Math.fround))) > 0)) fail(`${where}.matrix`, 'singular (determinant 0)');
+    asFloat.set(matrix);
+    if (!(Math.abs(det) > 0) || !(Math.abs(determinant3(asFloat)) > 0)) fail(`${where}.matrix`, 'singular (determinant 0)');
     const instance = {
       index: i,
       source: i,
@@ -351,16 +406,18 @@ export function parseManifest(json) {
       mirror: det < 0,
       errorBound: inst.error_bound === undefined ? component.errorBound : number(inst.error_bound, `${where}.error_bound`),
     };
-    return instance;
-  }).filter(Boolean);
+    instances.push(instance);
+  }
   // The refused instances leave no gap: indices count the drawn ones; `source` is the index in
   // the manifest's own list (what messages name).
-  instances.forEach((instance, i) => {
+  for (let i = 0; i < instances.length; ++i) {
+    if (i % kEntriesPerStep === kEntriesPerStep - 1) yield;
+    const instance = instances[i];
     instance.index = i;
     instancesOf.get(instance.component).push(i);
     instancesOfPart[instance.part].push(i);
     partBounds[instance.part] = unionBox(partBounds[instance.part], transformBox(componentById.get(instance.component).bounds, instance.matrix));
-  });
+  }
 
   const seen = new Set();
   const streamOrder = json.stream_order.map((id, i) => {

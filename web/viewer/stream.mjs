@@ -20,6 +20,16 @@
 //
 // No DOM and no three.js: Node tests run it with fake fetch and decode.
 
+/// Resolves in a later task, so that the page can answer input and paint in between: long work
+/// on the main thread (a dense skeleton's manifest, its thousands of first streams) is cut into
+/// slices of a few tens of milliseconds with this between them. scheduler.yield() where the
+/// browser has it (the continuation runs before other tasks of its priority), else a zero timeout.
+export function nextTask() {
+  const scheduler = globalThis.scheduler;
+  if (typeof scheduler?.yield === 'function') return scheduler.yield();
+  return new Promise((resolve) => setTimeout(resolve, 0));
+}
+
 /// The fetch plan of a parsed manifest (manifest.mjs): the chunks that hold components' first
 /// streams (`component.first`: the coarsest level, or the only one), in the manifest's order,
 /// each with its distinct byte ranges sorted by where they end (the order the bytes complete
@@ -145,6 +155,10 @@ async function readBodyWithin(response, ms, limit) {
   return { body, cut };
 }
 
+// The most ranges handed to the decoder in one task, and the longest such a slice runs.
+const kRangesPerSlice = 16;
+const kSliceMs = 15;
+
 export function createChunkStream(plan, options) {
   const {
     fetchChunk,
@@ -196,14 +210,26 @@ export function createChunkStream(plan, options) {
     const buffer = new Uint8Array(chunk.bytes);
     let received = 0;
     let overflow = false;
-    const take = (piece) => {
+    // Each range whose bytes are all in goes to the decoder, in slices (kRangesPerSlice ranges or
+    // kSliceMs, then the next task): one network read can complete a hundred small components,
+    // and handing each over (a copy, a message to a worker) held a slow phone's page for a
+    // fifth of a second.
+    const take = async (piece) => {
       const fits = Math.min(piece.length, chunk.bytes - received);
       if (fits < piece.length) overflow = true;
       buffer.set(fits === piece.length ? piece : piece.subarray(0, fits), received);
       received += fits;
       bytesReceived += fits;
+      let start = now();
+      let count = 0;
       while (next < chunk.ranges.length && chunk.ranges[next].end <= received) {
+        if (count === kRangesPerSlice || now() - start >= kSliceMs) {
+          await nextTask();
+          start = now();
+          count = 0;
+        }
         const range = chunk.ranges[next++];
+        count++;
         onReceived(range, now(), bytesReceived);
         // A copy of the range alone: its buffer goes to a decoder worker and the chunk's stays.
         startDecode(range, buffer.slice(range.offset, range.end).buffer);
@@ -213,12 +239,12 @@ export function createChunkStream(plan, options) {
       const reader = response.body?.getReader?.();
       if (!reader) {
         // No streams (an old browser, or a test's fake response): the whole body at once.
-        take(new Uint8Array(await response.arrayBuffer()));
+        await take(new Uint8Array(await response.arrayBuffer()));
       } else {
         for (;;) {
           const { done, value } = await readWithin(reader, stallMs);
           if (done) break;
-          take(value);
+          await take(value);
           if (overflow) {
             reader.cancel().catch(() => {});
             break;
