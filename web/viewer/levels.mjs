@@ -54,6 +54,7 @@ export function createLevelLoader(manifest, options) {
   let view = null;
   let shownPart = () => true;
   let lastNeeds = new Map();
+  let needsStale = true;         // the view, the target, what is shown or what is live changed
   let lastStarted = 0;
   let started = false;
   let timer = null;
@@ -143,10 +144,12 @@ export function createLevelLoader(manifest, options) {
   /// One round: the view's needs, the planner's decisions, carried out.
   function plan() {
     if (!started || signal?.aborted) return;
-    if (view) {
+    // A plan after a fetch has ended sees the view of the plan before: its needs stay.
+    if (view && needsStale) {
       const needs = screenNeeds(manifest, spheres, view, { maxPixelError: report.maxPixelError, shown: shownPart });
       for (const id of needs.keys()) if (!live.has(id)) needs.delete(id);
       lastNeeds = needs;
+      needsStale = false;
     }
     const result = planLevels(records.values(), lastNeeds, report.budget, { slots: limit - pending.size, reserved: reserved() });
     const show = [];
@@ -287,6 +290,7 @@ export function createLevelLoader(manifest, options) {
 
     /// The renderer drew these components for the first time (at their first level).
     firstDrawn(ids) {
+      needsStale = true;
       for (const id of ids) {
         live.add(id);
         report.levelDrawn[id] = 0;
@@ -326,6 +330,7 @@ export function createLevelLoader(manifest, options) {
     /// same frame that shows its component on screen.
     setView(next, shown) {
       view = next;
+      needsStale = true;
       if (shown) shownPart = shown;
       if (started && hasLevels) plan();
     },
@@ -369,6 +374,7 @@ export function createLevelLoader(manifest, options) {
     /// The target of the screen-space error, in pixels (default 1).
     setMaxPixelError(px) {
       if (Number.isFinite(px) && px > 0) report.maxPixelError = px;
+      needsStale = true;
       plan();
       return report.maxPixelError;
     },

@@ -163,8 +163,12 @@ export function createRecord(manifest, component) {
 
 const keyOf = (rec, level) => `${rec.id}\u0000${level}`;
 
+// The resident levels of `rec` not in `evicted`, coarsest first. Planning asks this of every
+// component several times a plan; most hold their coarsest level alone and nothing is evicted.
 function residentLevels(rec, evicted) {
-  return [...rec.resident.keys()].filter((l) => !evicted.has(keyOf(rec, l))).sort((a, b) => a - b);
+  const out = [];
+  for (const l of rec.resident.keys()) if (evicted.size === 0 || !evicted.has(keyOf(rec, l))) out.push(l);
+  return out.length > 1 ? out.sort((a, b) => a - b) : out;
 }
 
 /// The resident levels that may be evicted, in the order they go: every level but the coarsest
