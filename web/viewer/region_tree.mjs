@@ -18,7 +18,7 @@ export const kBatch = 200;
 
 /// Names in order as people read them ("Rib 2" before "Rib 10"); one collator for every
 /// comparison (localeCompare with options makes one per call: seconds for 65,536 groups).
-const kCollator = new Intl.Collator('en', { numeric: true });
+export const kCollator = new Intl.Collator('en', { numeric: true });
 
 const isGroup = (key) => key[0] === 'g';
 const indexOf = (key) => Number(key.slice(1));
