@@ -586,19 +586,12 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
   test('before three.js is ready, the first frames draw every bone as three.js then draws it; picks wait for three.js', async () => {
     const m = phantomManifest;
     const context = await browser.newContext(kDesktop);
-    // three.js's code is held back on its way to the renderer until released.
-    await context.addInitScript(() => {
-      const post = Worker.prototype.postMessage;
-      const held = [];
-      let released = false;
-      Worker.prototype.postMessage = function (message, transfer) {
-        if (message?.type === 'three' && !released) return void held.push([this, message, transfer]);
-        return post.call(this, message, transfer);
-      };
-      window.__releaseThree = () => {
-        released = true;
-        for (const [worker, message, transfer] of held.splice(0)) post.call(worker, message, transfer);
-      };
+    // three.js's code (which the render worker fetches) is held back on its way until released.
+    let releaseThree;
+    const threeHeld = new Promise((resolve) => { releaseThree = resolve; });
+    await context.route(/\/render-three-[0-9a-f]+\.js$/, async (route) => {
+      await threeHeld;
+      await route.continue();
     });
     const { page, problems } = await openViewer(context, `${server.url}phantom/`);
     const early = await waitLoaded(page);
@@ -615,7 +608,7 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     await page.waitForTimeout(200);
     assert.equal(await page.evaluate(() => window.osteon.selected), null);
 
-    await page.evaluate(() => window.__releaseThree());
+    releaseThree();
     await page.waitForFunction(() => window.osteon.timings.compiled !== undefined && window.osteon.selected === 'skull');
     await settle(page);
     // Deselected, so both pictures show the same bones in the same colours.

@@ -122,12 +122,6 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
     },
   );
   boot.manifest.catch(() => {});  // main.mjs reports it
-  const three = fetch(files.renderThree, { priority: 'high' }).then(async (response) => {
-    if (!response.ok) throw new Error(`HTTP ${response.status}`);
-    const code = await response.text();
-    boot.timings.threeFetched = performance.now();
-    return code;
-  });
   // The first two chunks that hold first streams (a component's coarsest level, or its only
   // one; finer levels come later, by byte range), as soon as the manifest names them, beside
   // three.js if it is still on its way: the renderer draws its first frames without three.js
@@ -161,8 +155,8 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
     base: files.renderThree,  // the three.js part's fallback import is resolved against it
     background,
   };
-  // The canvas's size, read once the worker is on its way: reading it lays the page out (tens of
-  // milliseconds with the panel), and the worker's start need not wait for that.
+  // The canvas's size, for a renderer on the page (reading it lays the page out: tens of
+  // milliseconds with the panel).
   const measure = () => {
     const rect = canvas.getBoundingClientRect();
     init.width = Math.max(1, Math.floor(rect.width));
@@ -195,7 +189,14 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
         boot.rendererError = `osteon: the render worker failed: ${e.message || 'its script could not be loaded'}`;
         deliver({ type: 'fatal', error: boot.rendererError, at: performance.now() });
       });
-      measure();
+      // Not measured here: reading the canvas's size lays the page out, a seventh of a second of
+      // this script on a slow phone. The page's first 'size' message (main.mjs, before any mesh)
+      // gives the worker the real one; until then it holds the canvas's own (300 x 150).
+      init.width = Math.max(1, canvas.width);
+      init.height = Math.max(1, canvas.height);
+      // The render worker fetches three.js's part itself: the thread that reads a body inflates
+      // it, and on a slow phone three.js's 550 KB took this thread for a fifth of a second.
+      init.fetchThree = true;
       worker.postMessage(init, [init.canvas]);
       boot.offscreen = true;
     }
@@ -237,10 +238,18 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
     (manifest) => link.postMessage({ type: 'manifest', text: manifest }),
     (e) => link.postMessage({ type: 'manifest', error: text(e) }),
   );
-  three.then(
-    (code) => link.postMessage({ type: 'three', text: code }),
-    (e) => link.postMessage({ type: 'three', error: text(e) }),
-  );
+  // A renderer on this page gets three.js's part from here, as its text.
+  if (!boot.offscreen) {
+    fetch(files.renderThree, { priority: 'high' }).then(async (response) => {
+      if (!response.ok) throw new Error(`HTTP ${response.status}`);
+      const code = await response.text();
+      boot.timings.threeFetched = performance.now();
+      return code;
+    }).then(
+      (code) => link.postMessage({ type: 'three', text: code }),
+      (e) => link.postMessage({ type: 'three', error: text(e) }),
+    );
+  }
   return boot;
 }
 

@@ -32,9 +32,11 @@
 //
 // Messages from the page (all on `port`):
 //   { type: 'init', canvas?, width, height, pixelRatio, pageOrigin, base (the URL the viewer's
-//     files are beside), background ('#rrggbb', or absent: camera.mjs kBackground) }
+//     files are beside: three.js's part), fetchThree (this worker fetches that file itself),
+//     background ('#rrggbb', or absent: camera.mjs kBackground) }
 //   { type: 'manifest', text } or { type: 'manifest', error }   manifest.json, fetched by the page
-//   { type: 'three', text } or { type: 'three', error }         render_three.mjs, fetched by the page
+//   { type: 'three', text } or { type: 'three', error }         render_three.mjs, fetched by the
+//                                                               page (without fetchThree)
 //   { type: 'mesh', ids, mesh }             a decoded component (several ids: byte-identical
 //                                           streams), its first level; its buffers transferred
 //   { type: 'level', ids, level, mesh }     a finer level of components already sent (levels.mjs),
@@ -428,6 +430,17 @@ function onInit(r, message) {
   r.init = message;
   r.pageOrigin = message.pageOrigin ?? performance.timeOrigin;
   mark(r, 'started');
+  // three.js's part, fetched here (`fetchThree`) rather than on the page, whose thread would
+  // inflate it; it then comes as the page's 'three' message would.
+  if (message.fetchThree) {
+    fetch(message.base, { priority: 'high' }).then(async (response) => {
+      if (!response.ok) throw new Error(`HTTP ${response.status}`);
+      return response.text();
+    }).then((text) => {
+      mark(r, 'threeFetched');
+      handle(r, { type: 'three', text });
+    }, (e) => handle(r, { type: 'three', error: String(e?.message ?? e) }));
+  }
   r.canvas = r.local.canvas ?? message.canvas;
   try {
     r.context = r.canvas.getContext('webgl2', kContextAttributes);
