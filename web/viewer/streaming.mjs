@@ -10,7 +10,7 @@
 import { createDecoderPool } from '../decoder/pool.mjs';
 import { createLevelLoader } from './levels.mjs';
 import { buildListsSoon, reportError, scheduleStatus, showInfo, updateStats, updateStatus } from './panel.mjs';
-import { createChunkStream, planChunks } from './stream.mjs';
+import { createChunkStream, nextTask, planChunks } from './stream.mjs';
 import { emit } from './state.mjs';
 import { send } from './view.mjs';
 
@@ -83,7 +83,14 @@ export function finish(state, at) {
   if (state.fatal || !state.levels?.hasLevels) for (const worker of state.boot?.decoders ?? []) worker.terminate();
   updateStatus(state);
   buildListsSoon(state);
-  if (!state.fatal) state.levels?.start(at);
+  // Refinement's first plan (thousands of components in a dense skeleton) in a task of its own.
+  if (!state.fatal && state.levels?.hasLevels) {
+    nextTask().then(() => {
+      if (!state.fatal) state.levels.start(at);
+    });
+  } else if (!state.fatal) {
+    state.levels?.start(at);
+  }
   // 'load' once every component is drawn or has failed; 'error' when nothing more can be drawn.
   emit(state, state.fatal ? 'error' : 'load', { ...progressOf(state), message: state.fatal ? state.report.errors.at(-1) : null });
 }
