@@ -256,56 +256,6 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
   }
 }
 
-OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
-                                   PredictionMode mode, SymbolDecoder& dec, ByteReader& in,
-                                   const std::string& source, QuantizedPositions* q) {
-  const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
-  // Written before being read, so not cleared.
-  const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
-  int32_t* const xyz = q->xyz.data();
-  SymbolDecoder::Cursor cursor = dec.cursor();  // in registers through the loop
-  uint32_t previous[3] = {0, 0, 0};
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode);
-    const uint32_t context[3] = {model.context(pred.kind, pred.local[0], previous[0]),
-                                 model.context(pred.kind, pred.local[1], previous[1]),
-                                 model.context(pred.kind, pred.local[2], previous[2])};
-    uint32_t symbol[3];
-    dec.get3(cursor, context, symbol);
-    // The raw bits (get_residual()), without a branch on whether there are any (a coin toss the
-    // branch predictor loses), the three axes' in one read where they fit in 56 bits (symbols
-    // below 40 each: nearly always).
-    const uint32_t bits[3] = {kRawBits[symbol[0]], kRawBits[symbol[1]], kRawBits[symbol[2]]};
-    uint64_t rest[3];
-    if (bits[0] + bits[1] + bits[2] <= 56) [[likely]] {
-      const uint64_t all = dec.get_bits(cursor, static_cast<int>(bits[0] + bits[1] + bits[2]));
-      rest[0] = all & ((uint64_t{1} << bits[0]) - 1);
-      rest[1] = (all >> bits[0]) & ((uint64_t{1} << bits[1]) - 1);
-      rest[2] = all >> (bits[0] + bits[1]);
-    } else {
-      for (int k = 0; k < 3; ++k) {
-        rest[k] = bits[k] > 32 ? dec.get_bits(cursor, 32) |
-                                     dec.get_bits(cursor, static_cast<int>(bits[k]) - 32) << 32
-                               : dec.get_bits(cursor, static_cast<int>(bits[k]));
-      }
-    }
-    bool in_range = true;
-    for (int k = 0; k < 3; ++k) {
-      const int64_t value = pred.xyz[k] + unzigzag(kLeadingBits[symbol[k]] | rest[k]);
-      in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
-      xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
-      previous[k] = symbol[k];
-    }
-    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
-    if (!cursor.ok || !in_range) [[unlikely]] {
-      return error(ErrorCode::kInvalidData, source,
-                   message("geometry: corrupt residual for vertex %", {v}), at_byte(in.offset()));
-    }
-  }
-  dec.resume(cursor);
-  return Status::ok_status();
-}
-
 // Version 2's lattice coding (see the top of the file): a mask symbol, then three residual
 // symbols, per vertex, in one symbol section.
 constexpr uint32_t kMaxLattice = uint32_t{1} << 24;  // lattice periods 2..2^24 grid steps
@@ -366,6 +316,73 @@ inline uint32_t free_context(PredictionKind kind, uint32_t local) {
   return kFreeBase + kind * 8 + std::min(local, 7u);
 }
 
+// One loop for both codings (lattice 0: plain residuals; else lattice coding), so that the
+// WebAssembly decoder holds one copy of the prediction and the symbol reads: the lattice branches
+// go the same way for every vertex of a stream.
+OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
+                                   PredictionMode mode, int64_t lattice, SymbolDecoder& dec,
+                                   ByteReader& in, const std::string& source,
+                                   QuantizedPositions* q) {
+  const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
+  // Written before being read, so not cleared.
+  const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
+  int32_t* const xyz = q->xyz.data();
+  SymbolDecoder::Cursor cursor = dec.cursor();  // in registers through the loop
+  uint32_t previous[3] = {0, 0, 0};
+  uint32_t mask = 0;  // lattice coding: the axes on lattice planes
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode);
+    uint32_t context[3];
+    if (lattice == 0) [[likely]] {
+      for (int k = 0; k < 3; ++k) context[k] = model.context(pred.kind, pred.local[k], previous[k]);
+    } else {
+      const uint32_t dominant = dominant_axis(v, nt, xyz);
+      mask = dec.get(cursor, mask_context(dominant, mask & 7));
+      for (int k = 0; k < 3; ++k) {
+        context[k] = ((mask >> k) & 1)
+                         ? plane_context(pred.kind, dominant == uint32_t(k), pred.local[k])
+                         : free_context(pred.kind, pred.local[k]);
+      }
+    }
+    uint32_t symbol[3];
+    dec.get3(cursor, context, symbol);
+    // The raw bits (get_residual()), without a branch on whether there are any (a coin toss the
+    // branch predictor loses), the three axes' in one read where they fit in 56 bits (symbols
+    // below 40 each: nearly always).
+    const uint32_t bits[3] = {kRawBits[symbol[0]], kRawBits[symbol[1]], kRawBits[symbol[2]]};
+    uint64_t rest[3];
+    if (bits[0] + bits[1] + bits[2] <= 56) [[likely]] {
+      const uint64_t all = dec.get_bits(cursor, static_cast<int>(bits[0] + bits[1] + bits[2]));
+      rest[0] = all & ((uint64_t{1} << bits[0]) - 1);
+      rest[1] = (all >> bits[0]) & ((uint64_t{1} << bits[1]) - 1);
+      rest[2] = all >> (bits[0] + bits[1]);
+    } else {
+      for (int k = 0; k < 3; ++k) {
+        rest[k] = bits[k] > 32 ? dec.get_bits(cursor, 32) |
+                                     dec.get_bits(cursor, static_cast<int>(bits[k]) - 32) << 32
+                               : dec.get_bits(cursor, static_cast<int>(bits[k]));
+      }
+    }
+    bool in_range = mask < 8;
+    for (int k = 0; k < 3; ++k) {
+      const int64_t r = unzigzag(kLeadingBits[symbol[k]] | rest[k]);
+      int64_t value = pred.xyz[k] + r;
+      // On a lattice plane: |r| < 2^34 and lattice <= 2^24, so no overflow before the check.
+      if ((mask >> k) & 1) value = (nearest_plane(pred.xyz[k], lattice) + r) * lattice;
+      in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
+      xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
+      previous[k] = symbol[k];
+    }
+    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
+    if (!cursor.ok || !in_range) [[unlikely]] {
+      return error(ErrorCode::kInvalidData, source,
+                   message("geometry: corrupt residual for vertex %", {v}), at_byte(in.offset()));
+    }
+  }
+  dec.resume(cursor);
+  return Status::ok_status();
+}
+
 // The lattice coder's encoding loop: hands each (context, symbol, z, is_residual) to `sink`
 // (the mask symbol has no raw bits).
 template <class Sink>
@@ -401,50 +418,6 @@ void encode_lattice_loop(const NewestTriangles& nt, const QuantizedPositions& q,
   }
 }
 
-OSTEON_NOINLINE Status decode_lattice_loop(const NewestTriangles& nt, int64_t lattice,
-                                           PredictionMode mode, SymbolDecoder& dec, ByteReader& in,
-                                           const std::string& source, QuantizedPositions* q) {
-  const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
-  const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
-  int32_t* const xyz = q->xyz.data();
-  SymbolDecoder::Cursor cursor = dec.cursor();
-  uint32_t previous_mask = 0;
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode);
-    const uint32_t dominant = dominant_axis(v, nt, xyz);
-    const uint32_t mask = dec.get(cursor, mask_context(dominant, previous_mask));
-    uint32_t context[3];
-    for (int k = 0; k < 3; ++k) {
-      context[k] = ((mask >> k) & 1)
-                       ? plane_context(pred.kind, dominant == uint32_t(k), pred.local[k])
-                       : free_context(pred.kind, pred.local[k]);
-    }
-    uint32_t symbol[3];
-    dec.get3(cursor, context, symbol);
-    bool in_range = mask < 8;
-    for (int k = 0; k < 3; ++k) {
-      const int bits = kRawBits[symbol[k]];
-      const uint64_t rest = bits > 32
-                                ? dec.get_bits(cursor, 32) | dec.get_bits(cursor, bits - 32) << 32
-                                : dec.get_bits(cursor, bits);
-      const int64_t r = unzigzag(kLeadingBits[symbol[k]] | rest);
-      // |r| < 2^34 and lattice <= 2^24: no overflow before the range check.
-      const int64_t value =
-          ((mask >> k) & 1) ? (nearest_plane(pred.xyz[k], lattice) + r) * lattice : pred.xyz[k] + r;
-      in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
-      xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
-    }
-    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
-    previous_mask = mask & 7;
-    if (!cursor.ok || !in_range) [[unlikely]] {
-      return error(ErrorCode::kInvalidData, source,
-                   message("geometry: corrupt lattice residual for vertex %", {v}),
-                   at_byte(in.offset()));
-    }
-  }
-  dec.resume(cursor);
-  return Status::ok_status();
-}
 }  // namespace
 
 void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t lattice,
@@ -533,12 +506,8 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   }
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
-  if (lattice != 0) {
-    OSTEON_RETURN_IF_ERROR(
-        decode_lattice_loop(nt, int64_t(lattice), PredictionMode(mode), dec, in, source, &q));
-  } else {
-    OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode), dec, in, source, &q));
-  }
+  OSTEON_RETURN_IF_ERROR(
+      decode_loop(nt, model, PredictionMode(mode), int64_t(lattice), dec, in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
   return q;
 }
