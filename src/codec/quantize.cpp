@@ -18,6 +18,7 @@ constexpr double kMaxCells = double(1 << 30);  // a side of the grid fits int32 
 // Lattice detection: the most frequent coordinate values of a sample, per axis, fitted by
 // v0 + i * spacing; a lattice when the three spacings agree and most vertices have two
 // coordinates on their planes.
+constexpr size_t kLatticeProbe = 4096;
 constexpr size_t kLatticeSample = 65536;
 constexpr size_t kLatticeTopValues = 64;
 constexpr double kLatticeTolerance = 0.02;  // of the spacing, for "on a plane"
@@ -84,6 +85,17 @@ bool fit_axis(std::vector<float> values, double step, AxisLattice* out) {
 
 /// Moves `grid` onto the positions' voxel lattice, if they sit on one (see choose_grid).
 void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* grid) {
+  {
+    // Cheap rejection first: on a lattice, most x coordinates repeat another's exactly (a plane
+    // holds many vertices); elsewhere few do.
+    const size_t stride = std::max<size_t>(1, positions.size() / kLatticeProbe);
+    std::vector<float> probe;
+    for (size_t i = 0; i < positions.size(); i += stride) probe.push_back(positions[i].x);
+    std::sort(probe.begin(), probe.end());
+    size_t repeats = 0;
+    for (size_t i = 1; i < probe.size(); ++i) repeats += probe[i] == probe[i - 1] ? 1 : 0;
+    if (repeats * 8 < probe.size()) return;
+  }
   const size_t stride = std::max<size_t>(1, positions.size() / kLatticeSample);
   std::vector<Vec3> sample;
   for (size_t i = 0; i < positions.size(); i += stride) sample.push_back(positions[i]);
