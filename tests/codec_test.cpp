@@ -66,6 +66,60 @@ TEST(Codec, RoundTripsThePhantomSkeleton) {
   }
 }
 
+// A raw marching-cubes-like surface: a sphere, off the lattice's symmetry, whose vertices each
+// keep two coordinates on the planes of an isotropic voxel lattice (`spacing` apart) and move
+// along the third axis, the one the normal points along most, back onto the sphere.
+Mesh make_lattice_sphere(int subdivisions, float radius, float spacing) {
+  Mesh mesh = make_icosphere(subdivisions, radius);
+  const float centre[3] = {0.37f * spacing, 0.71f * spacing, 0.13f * spacing};
+  for (Vec3& p : mesh.positions) {
+    float c[3] = {p.x, p.y, p.z};
+    int free = 0;
+    for (int k = 1; k < 3; ++k) free = std::fabs(c[k]) > std::fabs(c[free]) ? k : free;
+    float rest = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (k == free) continue;
+      c[k] = std::round((c[k] + centre[k]) / spacing) * spacing;
+      rest += (c[k] - centre[k]) * (c[k] - centre[k]);
+    }
+    c[free] =
+        centre[free] + std::copysign(std::sqrt(std::max(0.0f, radius * radius - rest)), c[free]);
+    p = {c[0], c[1], c[2]};
+  }
+  return mesh;
+}
+
+TEST(Codec, LatticeSurfacesCodeOnTheLattice) {
+  const Mesh sphere = make_lattice_sphere(4, 50.0f, 2.3f);
+  EncodeReport report;
+  Result<std::vector<uint8_t>> on_lattice = encode(sphere, {}, &report);
+  ASSERT_TRUE(on_lattice.ok()) << on_lattice.status().message();
+  EXPECT_GE(report.grid.lattice, 2u);
+  EXPECT_NEAR(report.grid_step * report.grid.lattice, 2.3, 1e-4);
+  EXPECT_LE(report.grid_step, 100.0 / 16383);  // never coarser than --bits asked for
+  expect_round_trip(sphere);
+  // The same grid without the hint: plain residuals, much larger.
+  EncodeOptions plain;
+  plain.grid = report.grid;
+  plain.grid.lattice = 0;
+  Result<std::vector<uint8_t>> off_lattice = encode(sphere, plain);
+  ASSERT_TRUE(off_lattice.ok());
+  EXPECT_LT(on_lattice->size() * 10, off_lattice->size() * 8);
+  // A wrong hint costs bytes, never exactness; a smooth sphere has no lattice.
+  EncodeOptions wrong = plain;
+  wrong.grid.lattice = 7;
+  expect_round_trip(sphere, wrong);
+  EncodeReport smooth;
+  ASSERT_TRUE(encode(make_icosphere(4, 50.0f), {}, &smooth).ok());
+  EXPECT_EQ(smooth.grid.lattice, 0u);
+  EncodeOptions precise;
+  precise.precision = 0.01;
+  ASSERT_TRUE(encode(sphere, precise, &report).ok());
+  EXPECT_GE(report.grid.lattice, 2u);
+  EXPECT_LE(report.max_error, 0.01 + 1e-5);
+  expect_round_trip(sphere, precise);
+}
+
 TEST(Codec, BitsAndPrecisionSetTheGridStep) {
   Mesh sphere = make_icosphere(3, 50.0f);
   for (int bits : {8, 12, 16, 20, 24}) {
@@ -134,22 +188,36 @@ std::vector<uint8_t> small_stream() {
   return bytes.ok() ? bytes.value() : std::vector<uint8_t>{};
 }
 
+// A small stream whose geometry is coded on a lattice (its lattice varint is the geometry
+// section's second byte).
+std::vector<uint8_t> small_lattice_stream() {
+  auto bytes = encode(make_lattice_sphere(2, 10.0f, 1.3f));
+  EXPECT_TRUE(bytes.ok());
+  if (!bytes.ok()) return {};
+  uint32_t connectivity_length = 0;
+  std::memcpy(&connectivity_length, bytes->data() + 48, 4);
+  EXPECT_NE((*bytes)[60 + connectivity_length + 1], 0) << "not coded on the lattice";
+  return bytes.value();
+}
+
 TEST(Codec, TruncationAtEveryByteIsAnError) {
-  std::vector<uint8_t> bytes = small_stream();
-  for (size_t cut = 0; cut < bytes.size(); ++cut) {
-    Result<Mesh> r = decode(bytes.data(), cut, "cut.ostm");
-    ASSERT_FALSE(r.ok()) << "cut at " << cut;
-    EXPECT_EQ(r.status().message().rfind("cut.ostm: ", 0), 0u) << r.status().message();
+  for (const std::vector<uint8_t>& bytes : {small_stream(), small_lattice_stream()}) {
+    for (size_t cut = 0; cut < bytes.size(); ++cut) {
+      Result<Mesh> r = decode(bytes.data(), cut, "cut.ostm");
+      ASSERT_FALSE(r.ok()) << "cut at " << cut;
+      EXPECT_EQ(r.status().message().rfind("cut.ostm: ", 0), 0u) << r.status().message();
+    }
   }
 }
 
 TEST(Codec, FlippedBitsFailTheChecksum) {
-  std::vector<uint8_t> bytes = small_stream();
-  for (size_t i = 0; i < bytes.size(); ++i) {
-    std::vector<uint8_t> copy = bytes;
-    copy[i] ^= uint8_t(1u << (i % 8));
-    Result<Mesh> r = decode(copy.data(), copy.size());
-    EXPECT_FALSE(r.ok()) << "flip in byte " << i;
+  for (const std::vector<uint8_t>& bytes : {small_stream(), small_lattice_stream()}) {
+    for (size_t i = 0; i < bytes.size(); ++i) {
+      std::vector<uint8_t> copy = bytes;
+      copy[i] ^= uint8_t(1u << (i % 8));
+      Result<Mesh> r = decode(copy.data(), copy.size());
+      EXPECT_FALSE(r.ok()) << "flip in byte " << i;
+    }
   }
 }
 
@@ -165,10 +233,10 @@ void set_crc(std::vector<uint8_t>& bytes) {
 }
 
 TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
-  std::vector<uint8_t> bytes = small_stream();
+  const std::vector<uint8_t> streams[2] = {small_stream(), small_lattice_stream()};
   std::mt19937 rng(7);
-  for (int trial = 0; trial < 3000; ++trial) {
-    std::vector<uint8_t> copy = bytes;
+  for (int trial = 0; trial < 6000; ++trial) {
+    std::vector<uint8_t> copy = streams[trial % 2];
     int flips = 1 + trial % 4;
     for (int f = 0; f < flips; ++f) {
       size_t i = 60 + rng() % (copy.size() - 64);  // inside the sections
@@ -298,19 +366,36 @@ namespace {
 // stream version and regenerates them with OSTEON_WRITE_GOLDEN=1.
 struct Golden {
   const char* file;
-  const char* part;  // a phantom part (detail 1, seed 1)
+  const char*
+      part;  // a phantom part (detail 1, seed 1), or nullptr: make_lattice_sphere(2, 10, 1.3)
   int bits;
   bool normals;
 };
 constexpr Golden kGoldens[] = {
-    {"vertebra_l1_b12.ostm", "vertebra_l1", 12, false},  // genus 1
-    {"pelvis_b14.ostm", "pelvis", 14, false},            // 4 holes
-    {"scapula_l_b10.ostm", "scapula_l", 10, false},      // non-manifold edges
-    {"femur_r_b16_normals.ostm", "femur_r", 16, true},   // mirrored copy, normals sent
+    {"vertebra_l1_b12_v2.ostm", "vertebra_l1", 12, false},  // genus 1
+    {"pelvis_b14_v2.ostm", "pelvis", 14, false},            // 4 holes
+    {"scapula_l_b10_v2.ostm", "scapula_l", 10, false},      // non-manifold edges
+    {"femur_r_b16_normals_v2.ostm", "femur_r", 16, true},   // mirrored copy, normals sent
+    {"lattice_sphere_b14_v2.ostm", nullptr, 14, false},     // coded on a voxel lattice
+};
+// Version-1 streams of the first four, frozen before version 2.
+constexpr Golden kVersion1Goldens[] = {
+    {"vertebra_l1_b12.ostm", "vertebra_l1", 12, false},
+    {"pelvis_b14.ostm", "pelvis", 14, false},
+    {"scapula_l_b10.ostm", "scapula_l", 10, false},
+    {"femur_r_b16_normals.ostm", "femur_r", 16, true},
 };
 
 std::string golden_dir() {
   return std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden";
+}
+
+const Mesh* golden_mesh(const Phantom& phantom, const Golden& g) {
+  static const Mesh lattice_sphere = make_lattice_sphere(2, 10.0f, 1.3f);
+  if (g.part == nullptr) return &lattice_sphere;
+  for (const Mesh& m : phantom.scene.parts)
+    if (m.name == g.part) return &m;
+  return nullptr;
 }
 
 TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
@@ -318,9 +403,7 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
   const bool write = std::getenv("OSTEON_WRITE_GOLDEN") != nullptr;
   for (const Golden& g : kGoldens) {
     SCOPED_TRACE(g.file);
-    const Mesh* part = nullptr;
-    for (const Mesh& m : phantom.scene.parts)
-      if (m.name == g.part) part = &m;
+    const Mesh* part = golden_mesh(phantom, g);
     ASSERT_NE(part, nullptr);
     EncodeOptions options;
     options.bits = g.bits;
@@ -339,6 +422,33 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
     Result<Mesh> decoded = decode(frozen.data(), frozen.size(), path);
     ASSERT_TRUE(decoded.ok()) << decoded.status().message();
     EXPECT_EQ(decoded->triangle_count(), part->triangle_count());
+  }
+}
+
+// The decoder keeps reading version 1, to the very mesh the version-2 stream of the same part
+// decodes to (these parts have no lattice, so both versions share the grid and the predictor).
+TEST(CodecGolden, DecoderStillReadsVersion1Streams) {
+  Phantom phantom = make_phantom({.seed = 1, .detail = 1});
+  for (const Golden& g : kVersion1Goldens) {
+    SCOPED_TRACE(g.file);
+    const Mesh* part = golden_mesh(phantom, g);
+    ASSERT_NE(part, nullptr);
+    std::string path = golden_dir() + "/" + g.file;
+    std::vector<uint8_t> frozen = test::read_bytes(path);
+    ASSERT_GT(frozen.size(), 4u);
+    EXPECT_EQ(frozen[4], 1);
+    Result<Mesh> old_decoded = decode(frozen.data(), frozen.size(), path);
+    ASSERT_TRUE(old_decoded.ok()) << old_decoded.status().message();
+    EncodeOptions options;
+    options.bits = g.bits;
+    options.normals = g.normals;
+    Result<std::vector<uint8_t>> bytes = encode(*part, options);
+    ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+    Result<Mesh> new_decoded = decode(bytes->data(), bytes->size());
+    ASSERT_TRUE(new_decoded.ok()) << new_decoded.status().message();
+    EXPECT_EQ(old_decoded->indices, new_decoded->indices);
+    EXPECT_EQ(old_decoded->positions, new_decoded->positions);
+    EXPECT_EQ(old_decoded->normals, new_decoded->normals);
   }
 }
 

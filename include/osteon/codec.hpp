@@ -20,6 +20,11 @@ namespace osteon {
 struct QuantizationGrid {
   Vec3 origin{0, 0, 0};
   double step = 0;  ///< > 0
+  /// Grid steps between the planes of a voxel lattice the positions sit on (raw marching-cubes
+  /// surfaces: two of each vertex's three coordinates on the lattice), with the origin on a
+  /// lattice plane; 0 when there is none. A hint for the geometry coder: any value decodes
+  /// exactly, a wrong one only costs bytes.
+  uint32_t lattice = 0;
 };
 
 struct EncodeOptions {
@@ -58,9 +63,14 @@ struct EncodeReport {
 
 /// The quantization grid encode() uses for `options` on `positions` (see EncodeOptions): the
 /// given grid, or one with its origin at the box's minimum and a step from precision or bits.
-/// Callers that encode several pieces of one part on one grid (so they meet without cracks) ask
-/// for it once and pass it in EncodeOptions::grid. Errors: kInvalidArgument for options out of
-/// range or a grid with more than 2^30 cells a side. O(V).
+/// When the positions sit on an isotropic voxel lattice (two coordinates of nine vertices in ten
+/// on its planes), the step shrinks to the lattice spacing / k for the smallest integer k that
+/// keeps it no larger, and the origin moves onto a lattice plane below the box (QuantizationGrid::
+/// lattice = k): the error bound only tightens. Known approximation: the lattice is found from a
+/// sample of at most 65,536 vertices. Callers that encode several pieces of one part on one grid
+/// (so they meet without cracks) ask for it once and pass it in EncodeOptions::grid. Errors:
+/// kInvalidArgument for options out of range or a grid with more than 2^30 cells a side.
+/// O(V + S log S) for a sample of S vertices.
 Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
                                      const EncodeOptions& options);
 

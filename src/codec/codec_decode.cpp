@@ -50,10 +50,10 @@ Status check_stream_header(const uint8_t* data, size_t size, const std::string& 
   if (std::memcmp(data, detail::kStreamMagic, 4) != 0) {
     return error(ErrorCode::kInvalidData, source, "not an osteon stream (wrong magic)", "byte 0");
   }
-  if (data[4] != detail::kStreamVersion) {
+  if (data[4] < detail::kOldestStreamVersion || data[4] > detail::kStreamVersion) {
     return error(ErrorCode::kUnsupported, source,
-                 detail::message("stream version % (this decoder reads version %)",
-                                 {data[4], detail::kStreamVersion}),
+                 detail::message("stream version % (this decoder reads versions % to %)",
+                                 {data[4], detail::kOldestStreamVersion, detail::kStreamVersion}),
                  "byte 4");
   }
   return Status();
@@ -114,7 +114,7 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   ByteReader geometry_in(data + base + lengths[0], lengths[1]);
   OSTEON_ASSIGN_OR_RETURN(
       detail::QuantizedPositions q,
-      detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, source));
+      detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, data[4], source));
   connectivity.newest = detail::NewestTriangles();  // free it before the normals' arrays
   std::vector<uint32_t>& indices = connectivity.indices;
   QuantizationGrid grid;

@@ -72,7 +72,7 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     for (int k = 0; k < 3; ++k) ordered.xyz[3 * size_t{d} + k] = q.xyz[3 * size_t{v} + k];
   }
   std::vector<uint8_t> geometry;
-  detail::encode_geometry(connectivity.decoded_newest, ordered, &geometry);
+  detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry);
   std::vector<uint8_t> normals;
   if (options.normals) {
     if (mesh.normals.empty()) mesh.normals = compute_vertex_normals(mesh);

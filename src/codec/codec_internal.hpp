@@ -12,7 +12,10 @@
 namespace osteon::detail {
 
 constexpr uint8_t kStreamMagic[4] = {'O', 'S', 'T', 'M'};
-constexpr uint8_t kStreamVersion = 1;
+/// The version the encoder writes; the decoder reads kOldestStreamVersion..kStreamVersion
+/// (version 2 added lattice coding to the geometry section).
+constexpr uint8_t kStreamVersion = 2;
+constexpr uint8_t kOldestStreamVersion = 1;
 constexpr size_t kStreamHeaderBytes = 4 + 1 + 1 + 2 + 4 + 4 + 4 * 8 + 3 * 4;  // 60
 constexpr size_t kStreamChecksumBytes = 4;
 /// A stream may describe at most this many triangles per byte of its own size: far above what

@@ -31,15 +31,17 @@ std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid
 /// Encodes quantized positions (in decoded vertex order) given the decoded triangles' newest
 /// triangles: vertices in id order are predicted by the average of all parallelograms available
 /// across already-decoded triangles (the paper's eq. (1)), else by decoded neighbours, else by
-/// the previous vertex; residuals are entropy-coded. Appends the geometry section
-/// (docs/FORMAT.md) to `out`. O(V + T).
-void encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
+/// the previous vertex; residuals are entropy-coded. `lattice` is the grid's
+/// QuantizationGrid::lattice (0: none); the encoder codes on that lattice when its estimate says
+/// that is smaller. Appends the version-2 geometry section (docs/FORMAT.md) to `out`. O(V + T).
+void encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q, uint32_t lattice,
                      std::vector<uint8_t>* out);
-/// Decodes what encode_geometry wrote, for `vertex_count` vertices. `newest` is
-/// decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
+/// Decodes a geometry section of stream `version` (1 or 2), for `vertex_count` vertices. `newest`
+/// is decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
 /// each neighbour before the vertex it is filed under, each o too or kNoVertexId). Errors name
 /// `source` and the byte offset. O(V + T); allocates O(V) beyond the result.
 Result<QuantizedPositions> decode_geometry(ByteReader& in, const NewestTriangles& newest,
-                                           uint32_t vertex_count, const std::string& source);
+                                           uint32_t vertex_count, uint8_t version,
+                                           const std::string& source);
 
 }  // namespace osteon::detail

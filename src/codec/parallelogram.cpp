@@ -10,6 +10,7 @@
 #include "codec/entropy.hpp"
 #include "codec/geometry.hpp"
 #include "codec/residual.hpp"
+#include "core/byte_io.hpp"
 
 // Based on: the parallelogram rule (Touma & Gotsman 1998) averaged over every parallelogram that
 // is available when a vertex is decoded (Zhou, Jia & Su 2018, eq. (1): "three-parallelogram"
@@ -24,6 +25,14 @@
 //          \   /         before v too; the prediction is the rounded mean of all such
 //           \ /          parallelograms.
 //            v
+//
+// Lattice coding (stream version 2; Lorensen & Cline 1987 for where marching-cubes vertices lie):
+// a raw marching-cubes vertex sits on a lattice edge, so two of its three coordinates are on
+// lattice planes (multiples of the grid's lattice period L once choose_grid has aligned the grid)
+// and only the third, along the edge, is free. Each vertex then codes which axes are on planes
+// (a 3-bit mask, in the context of the axis its prediction's normal points along most: the edge
+// the surface crosses tends to be that axis) and, per axis, either the plane index's residual
+// from the plane nearest the prediction, in units of L, or the free coordinate's residual.
 //
 // Speed: every triangle has exactly one newest vertex, so grouping each triangle (n, p, o) under
 // its newest vertex (NewestTriangles, which the connectivity decoder builds as it writes the
@@ -247,20 +256,94 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
   }
 }
 
+// Version 2's lattice coding (see the top of the file): a mask symbol, then three residual
+// symbols, per vertex, in one symbol section.
+constexpr uint32_t kMaxLattice = uint32_t{1} << 24;  // lattice periods 2..2^24 grid steps
+constexpr uint32_t kNoAxis = 3;
+constexpr uint32_t kMaskContexts = 4 * 8;            // dominant axis (or none) x previous mask
+constexpr uint32_t kPlaneContexts = kKinds * 2 * 4;  // kind x (dominant axis?) x local
+constexpr uint32_t kFreeContexts = kKinds * 8;       // kind x local
+constexpr uint32_t kPlaneBase = kMaskContexts;
+constexpr uint32_t kFreeBase = kPlaneBase + kPlaneContexts;
+constexpr uint32_t kLatticeContexts = kFreeBase + kFreeContexts;
+
+/// The axis along which the normal of v's neighbouring triangles (n, p, o) is largest (ties to
+/// the lower axis), or kNoAxis when v has no parallelogram or their normal is zero. Wrapping
+/// 64-bit arithmetic: the same on both sides whatever the coordinates (corrupt streams too).
+inline uint32_t dominant_axis(uint32_t v, const NewestTriangles& nt, const int32_t* xyz) {
+  const NewestTriangle* e = nt.entries.data() + nt.first[v];
+  const NewestTriangle* const end = nt.entries.data() + nt.first[v + 1];
+  uint64_t normal[3] = {0, 0, 0};
+  for (; e != end; ++e) {
+    if (e->o == kNoVertexId) continue;
+    const int32_t* n = xyz + 3 * size_t{e->n};
+    const int32_t* p = xyz + 3 * size_t{e->p};
+    const int32_t* o = xyz + 3 * size_t{e->o};
+    uint64_t a[3], b[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = uint64_t(int64_t{n[k]} - o[k]);
+      b[k] = uint64_t(int64_t{p[k]} - o[k]);
+    }
+    normal[0] += a[1] * b[2] - a[2] * b[1];
+    normal[1] += a[2] * b[0] - a[0] * b[2];
+    normal[2] += a[0] * b[1] - a[1] * b[0];
+  }
+  uint64_t size[3];
+  for (int k = 0; k < 3; ++k) size[k] = normal[k] >> 63 ? 0 - normal[k] : normal[k];
+  if ((size[0] | size[1] | size[2]) == 0) return kNoAxis;
+  uint32_t axis = size[1] > size[0] ? 1 : 0;
+  return size[2] > size[axis] ? 2 : axis;
+}
+
+/// floor(a / b) for b >= 1.
+inline int64_t floor_div(int64_t a, int64_t b) {
+  const int64_t d = a / b;
+  return d - ((a % b != 0) & (a < 0));
+}
+
+/// The plane index nearest the prediction: floor((pred + floor(L / 2)) / L).
+inline int64_t nearest_plane(int64_t pred, int64_t lattice) {
+  return floor_div(pred + lattice / 2, lattice);
+}
+
+inline uint32_t mask_context(uint32_t dominant, uint32_t previous_mask) {
+  return dominant * 8 + previous_mask;
+}
+inline uint32_t plane_context(PredictionKind kind, bool dominant, uint32_t local) {
+  return kPlaneBase + (kind * 2 + (dominant ? 1 : 0)) * 4 + std::min(local, 3u);
+}
+inline uint32_t free_context(PredictionKind kind, uint32_t local) {
+  return kFreeBase + kind * 8 + std::min(local, 7u);
+}
+
+// One loop for both codings (lattice 0: plain residuals; else lattice coding), so that the
+// WebAssembly decoder holds one copy of the prediction and the symbol reads: the lattice branches
+// go the same way for every vertex of a stream.
 OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
-                                   PredictionMode mode, SymbolDecoder& dec, ByteReader& in,
-                                   const std::string& source, QuantizedPositions* q) {
+                                   PredictionMode mode, int64_t lattice, SymbolDecoder& dec,
+                                   ByteReader& in, const std::string& source,
+                                   QuantizedPositions* q) {
   const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
   // Written before being read, so not cleared.
   const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
   int32_t* const xyz = q->xyz.data();
   SymbolDecoder::Cursor cursor = dec.cursor();  // in registers through the loop
   uint32_t previous[3] = {0, 0, 0};
+  uint32_t mask = 0;  // lattice coding: the axes on lattice planes
   for (uint32_t v = 0; v < vertex_count; ++v) {
     const Prediction pred = predict(v, nt, xyz, symbols.get(), mode);
-    const uint32_t context[3] = {model.context(pred.kind, pred.local[0], previous[0]),
-                                 model.context(pred.kind, pred.local[1], previous[1]),
-                                 model.context(pred.kind, pred.local[2], previous[2])};
+    uint32_t context[3];
+    if (lattice == 0) [[likely]] {
+      for (int k = 0; k < 3; ++k) context[k] = model.context(pred.kind, pred.local[k], previous[k]);
+    } else {
+      const uint32_t dominant = dominant_axis(v, nt, xyz);
+      mask = dec.get(cursor, mask_context(dominant, mask & 7));
+      for (int k = 0; k < 3; ++k) {
+        context[k] = ((mask >> k) & 1)
+                         ? plane_context(pred.kind, dominant == uint32_t(k), pred.local[k])
+                         : free_context(pred.kind, pred.local[k]);
+      }
+    }
     uint32_t symbol[3];
     dec.get3(cursor, context, symbol);
     // The raw bits (get_residual()), without a branch on whether there are any (a coin toss the
@@ -280,9 +363,12 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
                                : dec.get_bits(cursor, static_cast<int>(bits[k]));
       }
     }
-    bool in_range = true;
+    bool in_range = mask < 8;
     for (int k = 0; k < 3; ++k) {
-      const int64_t value = pred.xyz[k] + unzigzag(kLeadingBits[symbol[k]] | rest[k]);
+      const int64_t r = unzigzag(kLeadingBits[symbol[k]] | rest[k]);
+      int64_t value = pred.xyz[k] + r;
+      // On a lattice plane: |r| < 2^34 and lattice <= 2^24, so no overflow before the check.
+      if ((mask >> k) & 1) value = (nearest_plane(pred.xyz[k], lattice) + r) * lattice;
       in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
       xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
       previous[k] = symbol[k];
@@ -297,45 +383,100 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   return Status::ok_status();
 }
 
+// The lattice coder's encoding loop: hands each (context, symbol, z, is_residual) to `sink`
+// (the mask symbol has no raw bits).
+template <class Sink>
+void encode_lattice_loop(const NewestTriangles& nt, const QuantizedPositions& q, int64_t lattice,
+                         PredictionMode mode, Sink&& sink) {
+  const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
+  std::vector<uint32_t> symbols(vertex_count);
+  const int32_t* xyz = q.xyz.data();
+  uint32_t previous_mask = 0;
+  for (uint32_t v = 0; v < vertex_count; ++v) {
+    const Prediction pred = predict(v, nt, xyz, symbols.data(), mode);
+    const uint32_t dominant = dominant_axis(v, nt, xyz);
+    uint32_t mask = 0;
+    for (int k = 0; k < 3; ++k) {
+      mask |= (xyz[3 * size_t{v} + k] % lattice == 0 ? 1u : 0u) << k;
+    }
+    sink(mask_context(dominant, previous_mask), mask, 0, false);
+    previous_mask = mask;
+    uint32_t symbol[3];
+    for (int k = 0; k < 3; ++k) {
+      const int64_t c = xyz[3 * size_t{v} + k];
+      if (((mask >> k) & 1)) {
+        const uint64_t z = zigzag(c / lattice - nearest_plane(pred.xyz[k], lattice));
+        symbol[k] = residual_symbol(z);
+        sink(plane_context(pred.kind, dominant == uint32_t(k), pred.local[k]), symbol[k], z, true);
+      } else {
+        const uint64_t z = zigzag(c - pred.xyz[k]);
+        symbol[k] = residual_symbol(z);
+        sink(free_context(pred.kind, pred.local[k]), symbol[k], z, true);
+      }
+    }
+    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
+  }
+}
+
 }  // namespace
 
-void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q,
+void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t lattice,
                      std::vector<uint8_t>* out) {
   const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
   assert(nt.first.size() == size_t{vertex_count} + 1 && nt.neighbour.size() == vertex_count);
   const ContextModel model(vertex_count);
+  if (lattice < 2 || lattice > kMaxLattice) lattice = 0;
 
-  // Measure both prediction modes, then code with the cheaper one.
+  // Measure both prediction modes, with and without the lattice, then code with the cheapest.
   PredictionMode best = kAverageAll;
+  bool best_lattice = false;
   double best_bits = 0;
-  for (uint32_t m = 0; m < kModes; ++m) {
-    std::vector<uint32_t> histogram(size_t{model.contexts()} * kResidualSymbols, 0);
-    uint64_t raw_bits = 0;
-    auto count = [&](uint32_t context, uint32_t symbol, uint64_t z) {
-      ++histogram[size_t{context} * kResidualSymbols + symbol];
-      if (symbol >= 4) raw_bits += bit_length(z) - 2;
-    };
-    encode_loop(nt, q, model, PredictionMode(m), count);
-    const double bits = estimated_bits(histogram, model.contexts(), raw_bits);
-    if (m == 0 || bits < best_bits) {
-      best = PredictionMode(m);
-      best_bits = bits;
+  for (int use_lattice = 0; use_lattice <= (lattice != 0 ? 1 : 0); ++use_lattice) {
+    const uint32_t contexts = use_lattice ? kLatticeContexts : model.contexts();
+    for (uint32_t m = 0; m < kModes; ++m) {
+      std::vector<uint32_t> histogram(size_t{contexts} * kResidualSymbols, 0);
+      uint64_t raw_bits = 0;
+      auto count = [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual = true) {
+        ++histogram[size_t{context} * kResidualSymbols + symbol];
+        if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
+      };
+      if (use_lattice) {
+        encode_lattice_loop(nt, q, lattice, PredictionMode(m), count);
+      } else {
+        encode_loop(nt, q, model, PredictionMode(m), count);
+      }
+      const double bits = estimated_bits(histogram, contexts, raw_bits);
+      if ((use_lattice == 0 && m == 0) || bits < best_bits) {
+        best = PredictionMode(m);
+        best_lattice = use_lattice != 0;
+        best_bits = bits;
+      }
     }
   }
 
   out->push_back(best);
-  SymbolEncoder enc(kResidualSymbols, model.contexts());
-  auto put = [&](uint32_t context, uint32_t symbol, uint64_t z) {
-    enc.put(context, symbol);
-    put_residual_bits(enc, symbol, z);
-  };
-  encode_loop(nt, q, model, best, put);
+  ByteWriter writer(out);
+  writer.write_varint(best_lattice ? lattice : 0);
+  SymbolEncoder enc(kResidualSymbols, best_lattice ? kLatticeContexts : model.contexts());
+  if (best_lattice) {
+    encode_lattice_loop(nt, q, lattice, best,
+                        [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
+                          enc.put(context, symbol);
+                          if (residual) put_residual_bits(enc, symbol, z);
+                        });
+  } else {
+    encode_loop(nt, q, model, best, [&](uint32_t context, uint32_t symbol, uint64_t z) {
+      enc.put(context, symbol);
+      put_residual_bits(enc, symbol, z);
+    });
+  }
   enc.append_to(out);
 }
 
 OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
                                                                 const NewestTriangles& nt,
                                                                 uint32_t vertex_count,
+                                                                uint8_t version,
                                                                 const std::string& source) {
   if (nt.first.size() != size_t{vertex_count} + 1 || nt.neighbour.size() != vertex_count) {
     return error(ErrorCode::kInvalidArgument, source,
@@ -346,10 +487,18 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
     return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
                  at_byte(in.offset()));
   }
+  uint64_t lattice = 0;  // version 2: the lattice period, 0 for none
+  if (version >= 2 && (!in.read_varint(&lattice) || lattice == 1 || lattice > kMaxLattice)) {
+    return error(ErrorCode::kInvalidData, source, "geometry: bad lattice period",
+                 at_byte(in.offset()));
+  }
   const ContextModel model(vertex_count);
   SymbolDecoder dec;
-  OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols, model.contexts(), source, "geometry"));
-  if (dec.symbols_left() != 3 * uint64_t{vertex_count}) {
+  OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols,
+                                  lattice != 0 ? kLatticeContexts : model.contexts(), source,
+                                  "geometry"));
+  const uint64_t symbols_per_vertex = lattice != 0 ? 4 : 3;
+  if (dec.symbols_left() != symbols_per_vertex * vertex_count) {
     return error(
         ErrorCode::kInvalidData, source,
         message("geometry: % residual symbols for % vertices", {dec.symbols_left(), vertex_count}),
@@ -357,7 +506,8 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   }
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
-  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode), dec, in, source, &q));
+  OSTEON_RETURN_IF_ERROR(
+      decode_loop(nt, model, PredictionMode(mode), int64_t(lattice), dec, in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
   return q;
 }

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "codec/geometry.hpp"
 
@@ -12,7 +14,122 @@ namespace osteon {
 
 namespace {
 constexpr double kMaxCells = double(1 << 30);  // a side of the grid fits int32 with room for deltas
+
+// Lattice detection: the most frequent coordinate values of a sample, per axis, fitted by
+// v0 + i * spacing; a lattice when the three spacings agree and most vertices have two
+// coordinates on their planes.
+constexpr size_t kLatticeProbe = 4096;
+constexpr size_t kLatticeSample = 65536;
+constexpr size_t kLatticeTopValues = 64;
+constexpr double kLatticeTolerance = 0.02;  // of the spacing, for "on a plane"
+constexpr uint32_t kMaxLattice = uint32_t{1} << 24;
+
+float& coordinate(Vec3& p, int axis) {
+  return axis == 0 ? p.x : (axis == 1 ? p.y : p.z);
 }
+float coordinate(const Vec3& p, int axis) {
+  return axis == 0 ? p.x : (axis == 1 ? p.y : p.z);
+}
+
+struct AxisLattice {
+  double v0 = 0, spacing = 0;
+};
+
+/// The lattice planes along one axis, from the sample's most frequent values; false when the
+/// values do not repeat or their gaps are not above two steps.
+bool fit_axis(std::vector<float> values, double step, AxisLattice* out) {
+  std::sort(values.begin(), values.end());
+  std::vector<std::pair<uint32_t, float>> runs;  // (count, value)
+  for (size_t i = 0; i < values.size();) {
+    size_t j = i;
+    while (j < values.size() && values[j] == values[i]) ++j;
+    runs.push_back({uint32_t(j - i), values[i]});
+    i = j;
+  }
+  size_t top = std::min(kLatticeTopValues, runs.size());
+  if (top < 4) return false;
+  std::partial_sort(runs.begin(), runs.begin() + top, runs.end(), [](const auto& a, const auto& b) {
+    return a.first > b.first || (a.first == b.first && a.second < b.second);
+  });
+  // Planes: values that repeat, and at least a sixteenth as often as the most frequent one.
+  const uint32_t least = std::max<uint32_t>(2, runs[0].first / 16);
+  while (top > 0 && runs[top - 1].first < least) --top;
+  if (top < 4) return false;
+  std::vector<double> planes(top);
+  for (size_t i = 0; i < top; ++i) planes[i] = runs[i].second;
+  std::vector<double> sorted = planes;
+  std::sort(sorted.begin(), sorted.end());
+  double gap = sorted[1] - sorted[0];
+  for (size_t i = 1; i + 1 < top; ++i) gap = std::min(gap, sorted[i + 1] - sorted[i]);
+  if (!(gap >= 2 * step)) return false;
+  // Least squares over the planes' indices, from the most frequent plane.
+  double si = 0, sv = 0, sii = 0, siv = 0;
+  for (double v : planes) {
+    const double i = std::round((v - planes[0]) / gap);
+    si += i;
+    sv += v;
+    sii += i * i;
+    siv += i * v;
+  }
+  const double n = double(top);
+  const double spread = sii - si * si / n;
+  out->spacing = spread > 0 ? (siv - si * sv / n) / spread : gap;
+  out->v0 = (sv - out->spacing * si) / n;
+  if (!(out->spacing >= 2 * step)) return false;
+  for (double v : planes) {  // every plane on the fitted lattice
+    const double t = (v - out->v0) / out->spacing;
+    if (std::fabs(t - std::round(t)) >= kLatticeTolerance) return false;
+  }
+  return true;
+}
+
+/// Moves `grid` onto the positions' voxel lattice, if they sit on one (see choose_grid).
+void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* grid) {
+  {
+    // Cheap rejection first: on a lattice, most x coordinates repeat another's exactly (a plane
+    // holds many vertices); elsewhere few do.
+    const size_t stride = std::max<size_t>(1, positions.size() / kLatticeProbe);
+    std::vector<float> probe;
+    for (size_t i = 0; i < positions.size(); i += stride) probe.push_back(positions[i].x);
+    std::sort(probe.begin(), probe.end());
+    size_t repeats = 0;
+    for (size_t i = 1; i < probe.size(); ++i) repeats += probe[i] == probe[i - 1] ? 1 : 0;
+    if (repeats * 8 < probe.size()) return;
+  }
+  const size_t stride = std::max<size_t>(1, positions.size() / kLatticeSample);
+  std::vector<Vec3> sample;
+  for (size_t i = 0; i < positions.size(); i += stride) sample.push_back(positions[i]);
+  AxisLattice axis[3];
+  for (int a = 0; a < 3; ++a) {
+    std::vector<float> values(sample.size());
+    for (size_t i = 0; i < sample.size(); ++i) values[i] = coordinate(sample[i], a);
+    if (!fit_axis(std::move(values), grid->step, &axis[a])) return;
+  }
+  const double spacing = (axis[0].spacing + axis[1].spacing + axis[2].spacing) / 3;
+  for (const AxisLattice& l : axis) {
+    if (std::fabs(l.spacing - spacing) > 1e-4 * spacing) return;  // anisotropic voxels
+  }
+  size_t on_two_planes = 0;
+  for (const Vec3& p : sample) {
+    int on = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double t = (coordinate(p, a) - axis[a].v0) / spacing;
+      on += std::fabs(t - std::round(t)) < kLatticeTolerance ? 1 : 0;
+    }
+    on_two_planes += on >= 2 ? 1 : 0;
+  }
+  if (double(on_two_planes) < 0.9 * double(sample.size())) return;
+  const double k = std::ceil(spacing / grid->step - 1e-9);
+  if (k < 2 || k > kMaxLattice) return;
+  grid->step = spacing / k;
+  grid->lattice = uint32_t(k);
+  for (int a = 0; a < 3; ++a) {
+    coordinate(grid->origin, a) = static_cast<float>(
+        axis[a].v0 - std::ceil((axis[a].v0 - coordinate(lo, a)) / spacing) * spacing);
+  }
+}
+
+}  // namespace
 
 Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
                                      const EncodeOptions& options) {
@@ -38,6 +155,7 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
   } else if (options.precision > 0) {
     grid.origin = lo;
     grid.step = 2.0 * options.precision;
+    fit_lattice(positions, lo, &grid);
   } else {
     if (options.bits < 8 || options.bits > 24) {
       return error(ErrorCode::kInvalidArgument, "",
@@ -45,6 +163,7 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
     }
     grid.origin = lo;
     grid.step = side > 0 ? side / double((uint32_t{1} << options.bits) - 1) : 1.0;
+    if (side > 0) fit_lattice(positions, lo, &grid);
   }
   // Every quantized coordinate must stay within +-2^30 so that residuals fit 32 bits.
   double reach =

@@ -452,6 +452,7 @@ Result<EncodedParts> encode_stage(
         encode_options.grid = grid_of[p];
         if (level < levels.size() && pieces_of[p].size() == 1) {
           encode_options.grid.step = level_step(grid_of[p].step, levels[level].distance);
+          encode_options.grid.lattice = 0;  // a coarser grid is off the voxel lattice
         }
         EncodeReport encoded;
         Result<std::vector<uint8_t>> bytes = encode(mesh, encode_options, &encoded);

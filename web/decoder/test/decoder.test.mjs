@@ -30,8 +30,10 @@ const cli = process.env.OSTEON_CLI ??
 // The decoder's download budget targets 25,000 bytes (WASM plus wrapper, gzip -9); bench/codec_bench
 // reports whether the target is met. With the wrapper minified by esbuild the download is 25.8 KB (the WASM alone is
 // 24.8 KB), so this test guards against regressions beyond that while the size is worked down.
+// Stream version 2's lattice decoding added about 670 bytes (26,194 -> 26,863 with Node's gzip -9),
+// hence the guard's raise from 26,500.
 const kTargetBytes = 25000;
-const kBudgetBytes = 26500;
+const kBudgetBytes = 26900;
 
 // A few real meshes with what the phantom lacks: non-manifold edges, inconsistent orientation,
 // many components, holes, every reader. The ct-like ones are also timed.
