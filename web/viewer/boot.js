@@ -20,7 +20,7 @@
 // (or on the standalone page when the page's boot is for another package), calls startBoot()
 // itself once it is connected, with the files resolved beside its own script.
 // The viewer (main.mjs) picks up what is in flight from the boot object:
-//   { manifestUrl, manifest: Promise<text>, chunks: Map chunk index -> Promise<Response>,
+//   { manifestUrl, manifest: Promise<text>, manifestJson: Promise<its JSON.parse>, chunks: Map chunk index -> Promise<Response>,
 //     chunkStarts: Map chunk index -> performance.now() when its fetch started, chunksStarted
 //     (a Promise: settled once the first chunks are on their way, or will not be),
 //     wasm: Promise<WebAssembly.Module>, decoders: [Worker], decoderError, link (the render
@@ -127,8 +127,11 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
   // three.js if it is still on its way: the renderer draws its first frames without three.js
   // (first_frames.mjs), so the bones, not the code, are what the first frame waits for. (main.mjs
   // checks the manifest in full; here only the file names are checked, as the fetch needs them.)
-  boot.chunksStarted = boot.manifest.then((manifestText) => {
-    const json = JSON.parse(manifestText);
+  // Parsed once, here: main.mjs checks this same object (a dense skeleton's manifest is a
+  // megabyte, tens of milliseconds a parse on a slow phone).
+  boot.manifestJson = boot.manifest.then((manifestText) => JSON.parse(manifestText));
+  boot.manifestJson.catch(() => {});  // main.mjs reports it
+  boot.chunksStarted = boot.manifestJson.then((json) => {
     const chunks = json.chunks;
     const first = new Set(json.components.map((c) => (c.levels && c.levels.length ? c.levels[0].chunk : c.chunk)));
     for (const k of [...first].sort((a, b) => a - b).slice(0, 2)) {

@@ -90,7 +90,7 @@ async function startPageRenderer(state) {
 async function readManifest(state) {
   const { boot } = state;
   try {
-    const json = JSON.parse(await boot.manifest);
+    const json = boot.manifestJson ? await boot.manifestJson : JSON.parse(await boot.manifest);
     await nextTask();
     state.manifest = await parseManifestSliced(json, nextTask);
     return true;
