@@ -57,7 +57,8 @@ using json = nlohmann::json;
 
 constexpr double kKiB = 1024.0;
 constexpr double kConnectivityTarget = 1.8;  // bits per vertex, closed meshes
-constexpr double kWasmTrianglesPerSecond = 20e6;
+constexpr double kWasmTrianglesPerSecond = 25e6;
+constexpr double kSizeTarget = 0.90;  // of Draco cl10's bytes
 constexpr double kDecoderDownloadTarget = 25000;  // gzipped bytes (25 KB, the stricter reading)
 
 std::optional<std::vector<uint8_t>> read_bytes(const fs::path& path) {
@@ -595,29 +596,43 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
         {{"target", name}, {"met", met ? json(*met) : json(nullptr)}, {"detail", text}});
   };
 
-  {  // Size: at most Draco cl10 on the median mesh and on both ct-like meshes.
-    std::vector<const Row*> checked = ct;
-    if (median && std::find(ct.begin(), ct.end(), median) == ct.end()) checked.push_back(median);
-    bool over = false, complete = ct.size() == 2;
-    std::string detail;
-    for (const Row* r : checked) {
-      if (!comparable(*r)) {
-        complete = false;
-        detail += r->label + ": not coded by every codec; ";
-        continue;
+  {  // Size: at most kSizeTarget of Draco cl10 summed over every group, and on skull_mc.ply;
+     // the meshes over it are named.
+    std::map<std::string, std::pair<double, double>> group_bytes;  // osteon, cl10
+    std::vector<std::string> group_order;
+    std::string misses;
+    size_t over_count = 0, coded = 0;
+    bool skull_over = false, skull_seen = false;
+    for (const Row& r : rows) {
+      if (!comparable(r)) continue;
+      ++coded;
+      const double ours = double(r.osteon.report.bytes), cl10 = double(r.draco.level[1].bytes);
+      if (!group_bytes.count(r.group)) group_order.push_back(r.group);
+      group_bytes[r.group].first += ours;
+      group_bytes[r.group].second += cl10;
+      const double ratio = ours / cl10;
+      if (r.label == "skull_mc.ply") {
+        skull_seen = true;
+        skull_over = ratio > kSizeTarget;
       }
-      double ratio = double(r->osteon.report.bytes) / double(r->draco.level[1].bytes);
-      over = over || ratio > 1.0;
-      detail += (r == median ? "median mesh " : "") + r->label + " " + fixed(ratio, 3) +
-                "x Draco cl10 (" + kb(double(r->osteon.report.bytes)) + " / " +
-                kb(double(r->draco.level[1].bytes)) + " KB); ";
+      if (ratio > kSizeTarget) {
+        ++over_count;
+        if (misses.size() < 600) misses += " " + r.label + " (" + fixed(ratio, 3) + ")";
+      }
     }
-    if (ct.size() != 2) detail += "a ct-like mesh is missing; ";
-    detail += "aim 0.9x";
-    target("size at most Draco cl10 on the median mesh and both ct-like meshes",
-           over       ? std::optional<bool>(false)
-           : complete ? std::optional<bool>(true)
-                      : std::nullopt,
+    std::string detail;
+    bool groups_over = false;
+    for (const std::string& g : group_order) {
+      const double ratio = group_bytes[g].first / group_bytes[g].second;
+      groups_over = groups_over || ratio > kSizeTarget;
+      detail += g + " " + fixed(ratio, 3) + "x; ";
+    }
+    detail += std::to_string(coded - over_count) + " of " + std::to_string(coded) +
+              " meshes at most " + fixed(kSizeTarget, 2) + "x";
+    if (!misses.empty()) detail += "; over:" + misses;
+    target("size at most 0.90x Draco cl10 on every group and on skull_mc.ply",
+           coded == 0 || !skull_seen ? std::nullopt
+                                     : std::optional<bool>(!groups_over && !skull_over),
            detail);
   }
   {  // Connectivity under 1.8 bpv on closed meshes.
@@ -642,7 +657,7 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
     target("connectivity under 1.8 bits per vertex on closed meshes",
            closed ? std::optional<bool>(under == closed) : std::nullopt, detail);
   }
-  {  // WASM decode >= 20M triangles/s, on the ct-like meshes (the 1M-triangle bones).
+  {  // WASM decode >= 25M triangles/s, on the ct-like meshes (the 1M-triangle bones).
     std::optional<bool> met;
     std::string detail;
     for (const Row* r : ct) {
@@ -658,7 +673,7 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
                 ms_text(r->osteon.wasm_ms) + " ms); ";
     }
     if (ct.empty()) detail = "no ct-like mesh";
-    target("WASM decode at least 20M triangles/s (ct-like meshes)", met, detail);
+    target("WASM decode at least 25M triangles/s single-threaded (ct-like meshes)", met, detail);
   }
   {  // Encode no slower than Draco cl7: on each ct-like mesh and summed over each group.
     Totals t = totals(all);
