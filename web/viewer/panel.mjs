@@ -9,7 +9,7 @@
 import { baseLanguage, groupPath, langAttribute, languageLabel, partGroupText, partName } from './language.mjs';
 import { drawInfo, drawStats, findPart, formatLength } from './manifest.mjs';
 import { colorBy } from './palette.mjs';
-import { buildTree, filterTree, kCollator, nodeName, partsUnder, renameTree, revealNode, updateTreeChecks } from './region_tree.mjs';
+import { buildTree, compareNames, filterTree, nodeName, partsUnder, renameTree, revealNode, updateTreeChecks } from './region_tree.mjs';
 import { emit, partVisible, viewChanged } from './state.mjs';
 import { fitAll, framePart, requestRender, send, sendParts } from './view.mjs';
 
@@ -266,7 +266,7 @@ function buildLists(state) {
   const list = $(state, 'part-list');
   const rows = document.createDocumentFragment();
   // One collator for the whole sort: localeCompare with options makes one per comparison.
-  const sorted = [...manifest.parts].sort((a, b) => kCollator.compare(a.displayName, b.displayName));
+  const sorted = [...manifest.parts].sort((a, b) => compareNames(a.displayName, b.displayName));
   for (const part of sorted) {
     const li = document.createElement('li');
     const checkbox = document.createElement('input');

@@ -17,8 +17,14 @@ import { groupName, langAttribute, partName } from './language.mjs';
 export const kBatch = 200;
 
 /// Names in order as people read them ("Rib 2" before "Rib 10"); one collator for every
-/// comparison (localeCompare with options makes one per call: seconds for 65,536 groups).
-export const kCollator = new Intl.Collator('en', { numeric: true });
+/// comparison (localeCompare with options makes one per call: seconds for 65,536 groups), made
+/// when first needed (making it loads the locale's collation data: most of this module's start
+/// on a slow phone).
+let collator = null;
+export function compareNames(a, b) {
+  collator ??= new Intl.Collator('en', { numeric: true });
+  return collator.compare(a, b);
+}
 
 const isGroup = (key) => key[0] === 'g';
 const indexOf = (key) => Number(key.slice(1));
@@ -62,7 +68,7 @@ function childrenOf(state, key) {
   const parts = key === null ? tree.rootParts : tree.childParts[indexOf(key)];
   if (!tree.sorted.has(key)) {
     tree.sorted.add(key);
-    parts.sort((a, b) => kCollator.compare(manifest.parts[a].displayName, manifest.parts[b].displayName));
+    parts.sort((a, b) => compareNames(manifest.parts[a].displayName, manifest.parts[b].displayName));
   }
   const keys = [...groups.map((g) => `g${g}`), ...parts.map((p) => `p${p}`)];
   return tree.filter ? keys.filter((k) => tree.filter.has(k)) : keys;
