@@ -2,6 +2,7 @@
 #include "osteon/repeats.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cstdint>
 #include <numeric>
 #include <string>
@@ -25,15 +26,13 @@ uint32_t find_root(std::vector<uint32_t>& parent, uint32_t v) {
 
 }  // namespace
 
-std::vector<Mesh> split_connected(const Mesh& mesh) {
+std::vector<uint32_t> connected_pieces(const Mesh& mesh, uint32_t* pieces) {
   const size_t triangles = mesh.triangle_count();
   std::vector<uint32_t> parent(mesh.positions.size());
   std::iota(parent.begin(), parent.end(), 0u);
   for (size_t t = 0; t < triangles; ++t) {
     const uint32_t* f = &mesh.indices[3 * t];
-    if (f[0] >= parent.size() || f[1] >= parent.size() || f[2] >= parent.size()) {
-      return {mesh};  // not a valid mesh: left for the caller's checks to report
-    }
+    assert(f[0] < parent.size() && f[1] < parent.size() && f[2] < parent.size());
     for (int k = 1; k < 3; ++k) {
       const uint32_t a = find_root(parent, f[0]), b = find_root(parent, f[k]);
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
@@ -43,12 +42,26 @@ std::vector<Mesh> split_connected(const Mesh& mesh) {
   constexpr uint32_t kNone = UINT32_MAX;
   std::vector<uint32_t> piece_of_root(mesh.positions.size(), kNone);
   std::vector<uint32_t> triangle_piece(triangles);
-  uint32_t pieces = 0;
+  uint32_t count = 0;
   for (size_t t = 0; t < triangles; ++t) {
     const uint32_t root = find_root(parent, mesh.indices[3 * t]);
-    if (piece_of_root[root] == kNone) piece_of_root[root] = pieces++;
+    if (piece_of_root[root] == kNone) piece_of_root[root] = count++;
     triangle_piece[t] = piece_of_root[root];
   }
+  *pieces = count;
+  return triangle_piece;
+}
+
+std::vector<Mesh> split_connected(const Mesh& mesh) {
+  const size_t triangles = mesh.triangle_count();
+  for (size_t i = 0; i < 3 * triangles; ++i) {
+    if (mesh.indices[i] >= mesh.positions.size()) {
+      return {mesh};  // not a valid mesh: left for the caller's checks to report
+    }
+  }
+  uint32_t pieces = 0;
+  const std::vector<uint32_t> triangle_piece = connected_pieces(mesh, &pieces);
+  constexpr uint32_t kNone = UINT32_MAX;
   if (pieces <= 1) return {mesh};
 
   std::vector<Mesh> out(pieces);

@@ -164,4 +164,9 @@ double repeat_tolerance(const Mesh& member, const RepeatOptions& options);
 /// (an STL of a whole spine) be searched for repeats bone by bone. O(V + T).
 std::vector<Mesh> split_connected(const Mesh& mesh);
 
+/// The vertex-connected piece of each triangle of `mesh`, as split_connected cuts them, numbered
+/// from 0 in order of their first triangle; `pieces` receives their count. Precondition: every
+/// index is in range. O(V + T).
+std::vector<uint32_t> connected_pieces(const Mesh& mesh, uint32_t* pieces);
+
 }  // namespace osteon

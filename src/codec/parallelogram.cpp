@@ -236,26 +236,6 @@ double estimated_bits(const std::vector<uint32_t>& histogram, uint32_t contexts,
   return bits;
 }
 
-// Runs the encoder's prediction loop, handing each (context, symbol, z) to `sink`.
-template <class Sink>
-void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, Sink&& sink) {
-  const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
-  std::vector<uint32_t> symbols(vertex_count);
-  uint32_t previous[3] = {0, 0, 0};
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    const Prediction pred = predict(v, nt, q.xyz.data(), symbols.data(), mode);
-    uint32_t symbol[3];
-    for (int k = 0; k < 3; ++k) {
-      const uint64_t z = zigzag(int64_t{q.xyz[3 * size_t{v} + k]} - pred.xyz[k]);
-      symbol[k] = residual_symbol(z);
-      sink(model.context(pred.kind, pred.local[k], previous[k]), symbol[k], z);
-      previous[k] = symbol[k];
-    }
-    symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
-  }
-}
-
 // Version 2's lattice coding (see the top of the file): a mask symbol, then three residual
 // symbols, per vertex, in one symbol section.
 constexpr uint32_t kMaxLattice = uint32_t{1} << 24;  // lattice periods 2..2^24 grid steps
@@ -383,35 +363,47 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   return Status::ok_status();
 }
 
-// The lattice coder's encoding loop: hands each (context, symbol, z, is_residual) to `sink`
-// (the mask symbol has no raw bits).
+// The encoder's prediction loop, for both codings as decode_loop reads them (lattice 0: plain
+// residuals in the context model's contexts; else a mask symbol, then lattice coding): hands
+// each (context, symbol, z, is_residual) to `sink` (the mask symbol has no raw bits).
 template <class Sink>
-void encode_lattice_loop(const NewestTriangles& nt, const QuantizedPositions& q, int64_t lattice,
-                         PredictionMode mode, Sink&& sink) {
+void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
+                 PredictionMode mode, int64_t lattice, Sink&& sink) {
   const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
   std::vector<uint32_t> symbols(vertex_count);
   const int32_t* xyz = q.xyz.data();
+  uint32_t previous[3] = {0, 0, 0};
   uint32_t previous_mask = 0;
   for (uint32_t v = 0; v < vertex_count; ++v) {
     const Prediction pred = predict(v, nt, xyz, symbols.data(), mode);
-    const uint32_t dominant = dominant_axis(v, nt, xyz);
-    uint32_t mask = 0;
-    for (int k = 0; k < 3; ++k) {
-      mask |= (xyz[3 * size_t{v} + k] % lattice == 0 ? 1u : 0u) << k;
-    }
-    sink(mask_context(dominant, previous_mask), mask, 0, false);
-    previous_mask = mask;
     uint32_t symbol[3];
-    for (int k = 0; k < 3; ++k) {
-      const int64_t c = xyz[3 * size_t{v} + k];
-      if (((mask >> k) & 1)) {
-        const uint64_t z = zigzag(c / lattice - nearest_plane(pred.xyz[k], lattice));
+    if (lattice == 0) {
+      for (int k = 0; k < 3; ++k) {
+        const uint64_t z = zigzag(int64_t{xyz[3 * size_t{v} + k]} - pred.xyz[k]);
         symbol[k] = residual_symbol(z);
-        sink(plane_context(pred.kind, dominant == uint32_t(k), pred.local[k]), symbol[k], z, true);
-      } else {
-        const uint64_t z = zigzag(c - pred.xyz[k]);
-        symbol[k] = residual_symbol(z);
-        sink(free_context(pred.kind, pred.local[k]), symbol[k], z, true);
+        sink(model.context(pred.kind, pred.local[k], previous[k]), symbol[k], z, true);
+        previous[k] = symbol[k];
+      }
+    } else {
+      const uint32_t dominant = dominant_axis(v, nt, xyz);
+      uint32_t mask = 0;
+      for (int k = 0; k < 3; ++k) {
+        mask |= (xyz[3 * size_t{v} + k] % lattice == 0 ? 1u : 0u) << k;
+      }
+      sink(mask_context(dominant, previous_mask), mask, 0, false);
+      previous_mask = mask;
+      for (int k = 0; k < 3; ++k) {
+        const int64_t c = xyz[3 * size_t{v} + k];
+        if (((mask >> k) & 1)) {
+          const uint64_t z = zigzag(c / lattice - nearest_plane(pred.xyz[k], lattice));
+          symbol[k] = residual_symbol(z);
+          sink(plane_context(pred.kind, dominant == uint32_t(k), pred.local[k]), symbol[k], z,
+               true);
+        } else {
+          const uint64_t z = zigzag(c - pred.xyz[k]);
+          symbol[k] = residual_symbol(z);
+          sink(free_context(pred.kind, pred.local[k]), symbol[k], z, true);
+        }
       }
     }
     symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
@@ -436,15 +428,11 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
     for (uint32_t m = 0; m < kModes; ++m) {
       std::vector<uint32_t> histogram(size_t{contexts} * kResidualSymbols, 0);
       uint64_t raw_bits = 0;
-      auto count = [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual = true) {
+      auto count = [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
         ++histogram[size_t{context} * kResidualSymbols + symbol];
         if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
       };
-      if (use_lattice) {
-        encode_lattice_loop(nt, q, lattice, PredictionMode(m), count);
-      } else {
-        encode_loop(nt, q, model, PredictionMode(m), count);
-      }
+      encode_loop(nt, q, model, PredictionMode(m), use_lattice ? lattice : 0, count);
       const double bits = estimated_bits(histogram, contexts, raw_bits);
       if ((use_lattice == 0 && m == 0) || bits < best_bits) {
         best = PredictionMode(m);
@@ -458,18 +446,11 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   ByteWriter writer(out);
   writer.write_varint(best_lattice ? lattice : 0);
   SymbolEncoder enc(kResidualSymbols, best_lattice ? kLatticeContexts : model.contexts());
-  if (best_lattice) {
-    encode_lattice_loop(nt, q, lattice, best,
-                        [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
-                          enc.put(context, symbol);
-                          if (residual) put_residual_bits(enc, symbol, z);
-                        });
-  } else {
-    encode_loop(nt, q, model, best, [&](uint32_t context, uint32_t symbol, uint64_t z) {
-      enc.put(context, symbol);
-      put_residual_bits(enc, symbol, z);
-    });
-  }
+  encode_loop(nt, q, model, best, best_lattice ? lattice : 0,
+              [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
+                enc.put(context, symbol);
+                if (residual) put_residual_bits(enc, symbol, z);
+              });
   enc.append_to(out);
 }
 

@@ -8,6 +8,7 @@
 
 #include "osteon/hausdorff.hpp"
 #include "osteon/mesh.hpp"
+#include "osteon/repeats.hpp"
 #include "package/package_internal.hpp"
 
 // Based on: M. Garland, P. Heckbert, "Surface simplification using quadric error metrics",
@@ -24,6 +25,35 @@
 
 namespace osteon::detail {
 
+namespace {
+
+/// The vertices that `indices` (triangles of `mesh`) use, in order of first use.
+struct Compacted {
+  std::vector<Vec3> positions;
+  std::vector<uint32_t> source;   ///< each vertex's id in `mesh`
+  std::vector<uint32_t> indices;  ///< `indices`, renumbered to them
+};
+
+/// `remap` holds UINT32_MAX for every vertex of `mesh` and is left so (only the entries of the
+/// vertices used are touched), so that many small calls cost their own size, not the mesh's.
+Compacted compact(const Mesh& mesh, const std::vector<uint32_t>& indices,
+                  std::vector<uint32_t>& remap) {
+  Compacted out;
+  out.indices.reserve(indices.size());
+  for (uint32_t v : indices) {
+    if (remap[v] == UINT32_MAX) {
+      remap[v] = static_cast<uint32_t>(out.positions.size());
+      out.positions.push_back(mesh.positions[v]);
+      out.source.push_back(v);
+    }
+    out.indices.push_back(remap[v]);
+  }
+  for (uint32_t v : out.source) remap[v] = UINT32_MAX;
+  return out;
+}
+
+}  // namespace
+
 Mesh submesh(const Mesh& mesh, const std::vector<uint32_t>& indices) {
   Mesh out;
   out.name = mesh.name;
@@ -31,14 +61,9 @@ Mesh submesh(const Mesh& mesh, const std::vector<uint32_t>& indices) {
   out.unit = mesh.unit;
   out.unit_source = mesh.unit_source;
   std::vector<uint32_t> remap(mesh.positions.size(), UINT32_MAX);
-  out.indices.reserve(indices.size());
-  for (uint32_t v : indices) {
-    if (remap[v] == UINT32_MAX) {
-      remap[v] = static_cast<uint32_t>(out.positions.size());
-      out.positions.push_back(mesh.positions[v]);
-    }
-    out.indices.push_back(remap[v]);
-  }
+  Compacted used = compact(mesh, indices, remap);
+  out.positions = std::move(used.positions);
+  out.indices = std::move(used.indices);
   out.stored_vertices = out.positions.size();
   return out;
 }
@@ -54,39 +79,20 @@ constexpr uint64_t kKeptIsland = 64;
 /// between two levels); with it the chain ends where the next quarter would cost more.
 constexpr float kLevelErrorShare = 0.05f;
 
-uint32_t find_root(std::vector<uint32_t>& parent, uint32_t v) {
-  while (parent[v] != v) {
-    parent[v] = parent[parent[v]];
-    v = parent[v];
-  }
-  return v;
-}
-
-/// meshopt_simplify on a compact copy of `indices` (triangles of `mesh`) to about `target`
-/// triangles within `error` (absolute), border locked; appends the result, in mesh's vertex ids.
-/// `remap` has one UINT32_MAX per mesh vertex and is left so (only the island's entries are
-/// touched), so that many islands cost their own size, not the mesh's each.
+/// meshopt_simplify on the triangles `indices` of `mesh` alone, to about `target` triangles
+/// within `error` (absolute), border locked; appends the result, in mesh's vertex ids. `remap`
+/// as compact() takes it.
 void simplify_into(const Mesh& mesh, const std::vector<uint32_t>& indices, uint64_t target,
                    float error, std::vector<uint32_t>& remap, std::vector<uint32_t>* out) {
-  std::vector<uint32_t> local_of;  // compact id -> mesh vertex
-  std::vector<uint32_t> local(indices.size());
-  std::vector<Vec3> positions;
-  for (size_t i = 0; i < indices.size(); ++i) {
-    const uint32_t v = indices[i];
-    if (remap[v] == UINT32_MAX) {
-      remap[v] = static_cast<uint32_t>(positions.size());
-      positions.push_back(mesh.positions[v]);
-      local_of.push_back(v);
-    }
-    local[i] = remap[v];
-  }
-  for (uint32_t v : local_of) remap[v] = UINT32_MAX;
+  const Compacted island = compact(mesh, indices, remap);
+  const std::vector<Vec3>& positions = island.positions;
   const float scale = meshopt_simplifyScale(&positions[0].x, positions.size(), sizeof(Vec3));
-  std::vector<uint32_t> kept(local.size());
+  std::vector<uint32_t> kept(island.indices.size());
   const size_t count = meshopt_simplify(
-      kept.data(), local.data(), local.size(), &positions[0].x, positions.size(), sizeof(Vec3),
-      size_t(3 * target), scale > 0 ? error / scale : 0.0f, meshopt_SimplifyLockBorder, nullptr);
-  for (size_t i = 0; i < count; ++i) out->push_back(local_of[kept[i]]);
+      kept.data(), island.indices.data(), island.indices.size(), &positions[0].x,
+      positions.size(), sizeof(Vec3), size_t(3 * target), scale > 0 ? error / scale : 0.0f,
+      meshopt_SimplifyLockBorder, nullptr);
+  for (size_t i = 0; i < count; ++i) out->push_back(island.source[kept[i]]);
 }
 
 /// One step of the chain: `finer`'s triangles simplified to about `target` in all, each
@@ -94,26 +100,13 @@ void simplify_into(const Mesh& mesh, const std::vector<uint32_t>& indices, uint6
 /// kKeptIsland triangles kept as they are. Returns the kept triangles, in finer's vertex ids.
 std::vector<uint32_t> simplify_step(const Mesh& finer, uint64_t target, float error) {
   const uint64_t triangles = finer.triangle_count();
-  std::vector<uint32_t> parent(finer.positions.size());
-  for (uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
-  for (size_t i = 0; i < finer.indices.size(); i += 3) {
-    const uint32_t a = find_root(parent, finer.indices[i]);
-    for (int k = 1; k < 3; ++k) {
-      const uint32_t b = find_root(parent, finer.indices[i + k]);
-      if (a != b) parent[b] = a;
-    }
-  }
   // Islands numbered in the order of their first triangle, so the output is deterministic.
-  std::vector<uint32_t> island_of_root(finer.positions.size(), UINT32_MAX);
-  std::vector<std::vector<uint32_t>> islands;
-  for (size_t i = 0; i < finer.indices.size(); i += 3) {
-    const uint32_t root = find_root(parent, finer.indices[i]);
-    if (island_of_root[root] == UINT32_MAX) {
-      island_of_root[root] = static_cast<uint32_t>(islands.size());
-      islands.emplace_back();
-    }
-    std::vector<uint32_t>& island = islands[island_of_root[root]];
-    island.insert(island.end(), finer.indices.begin() + i, finer.indices.begin() + i + 3);
+  uint32_t count = 0;
+  const std::vector<uint32_t> piece = connected_pieces(finer, &count);
+  std::vector<std::vector<uint32_t>> islands(count);
+  for (size_t t = 0; t < triangles; ++t) {
+    const auto first = finer.indices.begin() + 3 * t;
+    islands[piece[t]].insert(islands[piece[t]].end(), first, first + 3);
   }
   std::vector<uint32_t> kept;
   kept.reserve(3 * target);

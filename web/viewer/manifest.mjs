@@ -46,9 +46,9 @@ function isNumber(v) {
 }
 
 function number(v, where) {
+  if (isNumber(v)) return v;
   if (typeof v !== 'number' || !Number.isFinite(v)) fail(where, `expected a finite number, got ${JSON.stringify(v)}`);
-  if (!Number.isFinite(Math.fround(v))) fail(where, `${JSON.stringify(v)} is beyond a float's range`);
-  return v;
+  fail(where, `${JSON.stringify(v)} is beyond a float's range`);
 }
 
 /// `n` numbers `v` (an array), checked; a field's name is made only for the message of a bad one,
