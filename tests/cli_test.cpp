@@ -13,6 +13,7 @@
 
 namespace osteon {
 namespace {
+namespace cli_test {
 
 using test::CliRun;
 using test::run_cli;
@@ -136,5 +137,6 @@ TEST(Cli, PhantomRejectsBadOptions) {
   EXPECT_NE(run.err.find("--detail"), std::string::npos);
 }
 
+}  // namespace cli_test
 }  // namespace
 }  // namespace osteon

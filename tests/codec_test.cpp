@@ -14,6 +14,7 @@
 
 namespace osteon {
 namespace {
+namespace codec_test {
 
 // The triangles of `mesh` as sorted, rotation-normalised position triples after the codec has
 // cleaned it (degenerate triangles and unreferenced vertices removed), quantized on `grid`.
@@ -283,11 +284,13 @@ TEST(Codec, RealMeshesRoundTrip) {
   }
 }
 
+}  // namespace codec_test
 }  // namespace
 }  // namespace osteon
 
 namespace osteon {
 namespace {
+namespace codec_test {
 
 TEST(CodecNormals, TransmittedNormalsComeBackWithinTheirQuantization) {
   for (const auto& [category, input] : test::mesh_categories()) {
@@ -355,11 +358,13 @@ TEST(CodecNormals, BadNormalOptionsAreRejected) {
             std::string::npos);
 }
 
+}  // namespace codec_test
 }  // namespace
 }  // namespace osteon
 
 namespace osteon {
 namespace {
+namespace codec_test {
 
 // Golden streams freeze the bitstream: the encoder must keep producing exactly these bytes for
 // these meshes, and the decoder must keep reading them. A deliberate format change bumps the
@@ -471,5 +476,6 @@ TEST(CodecFuzzCorpus, EverySavedStreamDecodesOrFailsCleanly) {
   EXPECT_GT(decoded, 0u);
 }
 
+}  // namespace codec_test
 }  // namespace
 }  // namespace osteon

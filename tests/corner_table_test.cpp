@@ -18,6 +18,7 @@
 
 namespace osteon::detail {
 namespace {
+namespace corner_table_test {
 
 // The input triangles recovered from a ClosedManifold: faces 0..T-1 with copies mapped back.
 std::vector<uint32_t> recovered_indices(const ClosedManifold& m) {
@@ -154,5 +155,6 @@ TEST(CornerTable, DuplicateFaceAndSoups) {
   }
 }
 
+}  // namespace corner_table_test
 }  // namespace
 }  // namespace osteon::detail

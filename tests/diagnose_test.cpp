@@ -21,6 +21,7 @@
 
 namespace osteon {
 namespace {
+namespace diagnose_test {
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -489,5 +490,6 @@ TEST(Diagnose, LargeMesh) {
 
 // The agreement of every real file with ../shared/data/STATS.csv is tests/real_data_test.cpp's.
 
+}  // namespace diagnose_test
 }  // namespace
 }  // namespace osteon

@@ -35,6 +35,7 @@
 
 namespace osteon::detail {
 namespace {
+namespace edgebreaker_test {
 
 using Triangles = std::vector<std::array<uint32_t, 3>>;
 
@@ -579,5 +580,6 @@ TEST(EdgebreakerRealData, CtLikeScaleMeshes) {
   }
 }
 
+}  // namespace edgebreaker_test
 }  // namespace
 }  // namespace osteon::detail

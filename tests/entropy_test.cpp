@@ -15,6 +15,7 @@
 
 namespace osteon::detail {
 namespace {
+namespace entropy_test {
 
 // std::mt19937 returning uint32_t (its own result_type is uint_fast32_t, 64 bits on Linux).
 struct Rng {
@@ -732,5 +733,6 @@ TEST(Entropy, InconsistentTablesAreRejected) {
                             "3 contexts declared, the coder has 2"));
 }
 
+}  // namespace entropy_test
 }  // namespace
 }  // namespace osteon::detail

@@ -22,6 +22,7 @@
 
 namespace osteon {
 namespace {
+namespace export_test {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -352,5 +353,6 @@ TEST(Export, RefusesBadInputsAndLeavesNothing) {
   EXPECT_TRUE(files_in(out).empty()) << files_in(out).front();
 }
 
+}  // namespace export_test
 }  // namespace
 }  // namespace osteon

@@ -27,6 +27,7 @@
 
 namespace osteon {
 namespace {
+namespace fuzz_corpus_test {
 
 namespace fs = std::filesystem;
 
@@ -195,5 +196,6 @@ TEST(RegionsFuzzCorpus, EveryInputPlacesOrFailsCleanly) {
   replay_text_corpus("regions", &fuzz::regions_fuzz_one);
 }
 
+}  // namespace fuzz_corpus_test
 }  // namespace
 }  // namespace osteon

@@ -20,6 +20,7 @@
 
 namespace osteon {
 namespace {
+namespace golden_output_test {
 
 namespace fs = std::filesystem;
 using test::read_bytes;
@@ -124,5 +125,6 @@ TEST(GoldenOutput, RealStreams) {
   }
 }
 
+}  // namespace golden_output_test
 }  // namespace
 }  // namespace osteon

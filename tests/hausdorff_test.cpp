@@ -24,6 +24,7 @@
 
 namespace osteon {
 namespace {
+namespace hausdorff_test {
 
 // ---- helpers -------------------------------------------------------------------------------
 
@@ -736,5 +737,6 @@ TEST(HausdorffCli, CompareErrorsNameTheFile) {
   EXPECT_EQ(bad_samples.status, 2);
 }
 
+}  // namespace hausdorff_test
 }  // namespace
 }  // namespace osteon

@@ -27,6 +27,7 @@
 
 namespace osteon {
 namespace {
+namespace io_gltf_test {
 
 using nlohmann::json;
 using test::parse_error;
@@ -1013,11 +1014,13 @@ TEST(IoGltf, UnreadableRequiredExtensionsAreRefusedByName) {
             std::string::npos);
 }
 
+}  // namespace io_gltf_test
 }  // namespace
 }  // namespace osteon
 
 namespace osteon {
 namespace {
+namespace io_gltf_test {
 
 // What the web pipelines write: the phantom's skull (320 triangles) through gltfpack 1.3 (-cc:
 // EXT_meshopt_compression; -cz: KHR_meshopt_compression's newer vertex codec) and gltf-transform
@@ -1039,5 +1042,6 @@ TEST(IoGltf, WhatGltfpackAndGltfTransformWrite) {
       << cz.status().message();
 }
 
+}  // namespace io_gltf_test
 }  // namespace
 }  // namespace osteon

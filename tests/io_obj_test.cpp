@@ -11,6 +11,7 @@
 
 namespace osteon {
 namespace {
+namespace io_obj_test {
 
 using detail::parse_obj;
 
@@ -220,5 +221,6 @@ TEST(IoObj, TruncatedAtEveryByteNeverCrashes) {
   EXPECT_GT(failures, 0u);
 }
 
+}  // namespace io_obj_test
 }  // namespace
 }  // namespace osteon

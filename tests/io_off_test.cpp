@@ -16,6 +16,7 @@
 
 namespace osteon {
 namespace {
+namespace io_off_test {
 
 using detail::parse_off;
 
@@ -266,5 +267,6 @@ TEST(IoOff, SegmentationBenchmarkMatchesStats) {
             stats["cearto__zen__MeshsegBenchmark/data/off/1.off"].at("triangles"));
 }
 
+}  // namespace io_off_test
 }  // namespace
 }  // namespace osteon

@@ -17,6 +17,7 @@
 
 namespace osteon {
 namespace {
+namespace io_ply_test {
 
 using detail::parse_ply;
 
@@ -495,5 +496,6 @@ TEST(IoPly, CtLikeFilesMatchTheirHeaders) {
   }
 }
 
+}  // namespace io_ply_test
 }  // namespace
 }  // namespace osteon

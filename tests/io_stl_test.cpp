@@ -12,6 +12,7 @@
 
 namespace osteon {
 namespace {
+namespace io_stl_test {
 
 // A binary STL of `mesh`'s triangles with `header` (padded to 80 bytes).
 std::string binary_stl(const Mesh& mesh, const std::string& header = "osteon test") {
@@ -194,5 +195,6 @@ TEST(IoStl, RealMyoSimBonesMatchStats) {
   EXPECT_EQ(scene->parts[0].unit_source, UnitSource::kGuessed);
 }
 
+}  // namespace io_stl_test
 }  // namespace
 }  // namespace osteon

@@ -11,6 +11,7 @@
 
 namespace osteon {
 namespace {
+namespace io_test {
 
 namespace fs = std::filesystem;
 
@@ -164,5 +165,6 @@ TEST(Io, AFolderPassedWhereAFileIsExpectedIsRead) {
   EXPECT_EQ(scene->parts.at(0).name, "rib");
 }
 
+}  // namespace io_test
 }  // namespace
 }  // namespace osteon

@@ -18,6 +18,7 @@
 
 namespace osteon {
 namespace {
+namespace io_vtk_test {
 
 using test::parse_error;
 using test::parse_or_fail;
@@ -493,5 +494,6 @@ TEST(IoVtk, RealAtlasFilesMatchStats) {
   EXPECT_EQ(files, 27u);
 }
 
+}  // namespace io_vtk_test
 }  // namespace
 }  // namespace osteon

@@ -19,6 +19,7 @@
 
 namespace osteon {
 namespace {
+namespace io_write_test {
 
 namespace fs = std::filesystem;
 using test::canonical_triangles;
@@ -510,5 +511,6 @@ TEST(IoWrite, ConcurrentWritersLeaveOneWholeFile) {
   EXPECT_EQ(names_in(dir), std::vector<std::string>{"shared.bin"});
 }
 
+}  // namespace io_write_test
 }  // namespace
 }  // namespace osteon

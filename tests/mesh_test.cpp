@@ -5,6 +5,7 @@
 
 namespace osteon {
 namespace {
+namespace mesh_test {
 
 TEST(Mesh, UnitNamesRoundTrip) {
   for (Unit u : {Unit::kMillimetre, Unit::kCentimetre, Unit::kMetre, Unit::kInch}) {
@@ -57,5 +58,6 @@ TEST(Mesh, ExpandGrowsBoxesByPointsAndBoxes) {
   EXPECT_EQ(box.max, (Vec3{1, 5, 3}));
 }
 
+}  // namespace mesh_test
 }  // namespace
 }  // namespace osteon

@@ -27,6 +27,7 @@
 
 namespace osteon {
 namespace {
+namespace pack_levels_test {
 
 using test::read_bytes;
 using test::scratch_dir;
@@ -321,5 +322,6 @@ TEST(PackLevels, CorruptLevelFailsAlone) {
   EXPECT_TRUE(read_package(out).ok()) << "the full levels live in other chunks";
 }
 
+}  // namespace pack_levels_test
 }  // namespace
 }  // namespace osteon

@@ -28,6 +28,7 @@ extern char** environ;
 
 namespace osteon {
 namespace {
+namespace pack_publish_test {
 
 namespace fs = std::filesystem;
 using test::read_bytes;
@@ -270,5 +271,6 @@ TEST(PackPublish, OnlyAPackageOrAnEmptyFolderIsReplaced) {
   EXPECT_TRUE(leftovers(f.root + "/deep/er/site", "tmp").empty());
 }
 
+}  // namespace pack_publish_test
 }  // namespace
 }  // namespace osteon

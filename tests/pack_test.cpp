@@ -26,6 +26,7 @@
 
 namespace osteon {
 namespace {
+namespace pack_test {
 
 namespace fs = std::filesystem;
 using test::read_bytes;
@@ -572,5 +573,6 @@ TEST(Pack, BadManifestIsRefused) {
   EXPECT_NE(missing.status().message().find(file), std::string::npos) << missing.status().message();
 }
 
+}  // namespace pack_test
 }  // namespace
 }  // namespace osteon

@@ -17,6 +17,7 @@
 
 namespace osteon {
 namespace {
+namespace package_manifest_test {
 
 namespace fs = std::filesystem;
 using test::read_bytes;
@@ -218,5 +219,6 @@ TEST(PackageManifest, NumbersAreFloats) {
   EXPECT_EQ(again->components[0].error_bound, parsed->components[0].error_bound);
 }
 
+}  // namespace package_manifest_test
 }  // namespace
 }  // namespace osteon

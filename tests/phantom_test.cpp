@@ -15,6 +15,7 @@
 
 namespace osteon {
 namespace {
+namespace phantom_test {
 
 std::array<double, 3> apply(const std::array<double, 16>& m, const Vec3& p) {
   return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12],
@@ -382,5 +383,6 @@ TEST(Phantom, DetailScalesTheTriangles) {
   EXPECT_EQ(femur_triangles(0), femur_triangles(1));  // clamped to 1
 }
 
+}  // namespace phantom_test
 }  // namespace
 }  // namespace osteon

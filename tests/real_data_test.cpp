@@ -18,6 +18,7 @@
 
 namespace osteon {
 namespace {
+namespace real_data_test {
 
 struct StatsRow {
   std::string path;
@@ -132,5 +133,6 @@ TEST(RealData, WholeBodyParts3DSkeletonReadsAsNamedParts) {
   EXPECT_EQ(scene->parts[0].unit, Unit::kMillimetre);
 }
 
+}  // namespace real_data_test
 }  // namespace
 }  // namespace osteon

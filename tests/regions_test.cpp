@@ -13,6 +13,7 @@
 
 namespace osteon::detail {
 namespace {
+namespace regions_test {
 
 namespace fs = std::filesystem;
 
@@ -181,5 +182,6 @@ TEST(Regions, BodyParts3DSkeletonFromItsOntology) {
   EXPECT_EQ(path_of["Right_hip_bone"], "Skeleton / Pelvis / Right | Skeletal system");
 }
 
+}  // namespace regions_test
 }  // namespace
 }  // namespace osteon::detail

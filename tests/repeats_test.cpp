@@ -31,6 +31,7 @@
 
 namespace osteon {
 namespace {
+namespace repeats_test {
 
 using Matrix = std::array<double, 16>;  // column-major, as RepeatMember::matrix
 
@@ -806,5 +807,6 @@ TEST(FindRepeats, MyoSimLeftAndRightBonesPairUp) {
   expect_matrices_reproduce_members(parts, report);
 }
 
+}  // namespace repeats_test
 }  // namespace
 }  // namespace osteon

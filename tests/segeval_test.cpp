@@ -22,6 +22,7 @@
 
 namespace osteon {
 namespace {
+namespace segeval_test {
 
 namespace fs = std::filesystem;
 
@@ -553,5 +554,6 @@ TEST(SegEvalBenchmark, ReproducesTheHumanNoneAndEveryRows) {
   expect_row("Every", every_row.mean(), 0.5333, 0.4987, 0.9975, 0.0000, 0.3192, 0, 0);
 }
 
+}  // namespace segeval_test
 }  // namespace
 }  // namespace osteon

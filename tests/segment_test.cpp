@@ -20,6 +20,7 @@
 
 namespace osteon {
 namespace {
+namespace segment_test {
 
 /// Appends a grid of nx x ny quads spanning origin + [0,1]u x [0,1]v (two triangles each), facing
 /// u x v. Vertices on the grid's edges are shared with earlier grids where positions are equal
@@ -316,5 +317,6 @@ TEST(SegmentCli, ErrorsNameTheFile) {
   EXPECT_EQ(run.status, 2);
 }
 
+}  // namespace segment_test
 }  // namespace
 }  // namespace osteon

@@ -5,6 +5,7 @@
 
 namespace osteon {
 namespace {
+namespace status_test {
 
 Result<int> half(int x) {
   if (x % 2 != 0)
@@ -41,5 +42,6 @@ TEST(Status, MacrosPropagateTheFirstError) {
   EXPECT_EQ(check_even(5).code(), ErrorCode::kInvalidArgument);
 }
 
+}  // namespace status_test
 }  // namespace
 }  // namespace osteon

@@ -28,6 +28,7 @@
 
 namespace osteon {
 namespace {
+namespace surface_nets_test {
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -604,5 +605,6 @@ TEST(SurfaceNets, ClosedManifoldCheckFindsTheBadVertices) {
   EXPECT_FALSE(detail::is_closed_manifold(tetrahedron, nullptr));
 }
 
+}  // namespace surface_nets_test
 }  // namespace
 }  // namespace osteon

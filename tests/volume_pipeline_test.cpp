@@ -21,6 +21,7 @@
 
 namespace osteon {
 namespace {
+namespace volume_pipeline_test {
 
 namespace fs = std::filesystem;
 using test::read_bytes;
@@ -204,5 +205,6 @@ TEST(VolumePipeline, VisibleHumanBonesVoxelizedAndSurfacedStayWithinAVoxel) {
       {"Left_Bone_Tibia", "Right_Bone_Calcaneous", "Left_Bone_Patella", "Right_Bone_Fibula"}, 1.0);
 }
 
+}  // namespace volume_pipeline_test
 }  // namespace
 }  // namespace osteon

@@ -25,6 +25,7 @@
 
 namespace osteon {
 namespace {
+namespace volume_read_test {
 
 namespace fs = std::filesystem;
 
@@ -986,5 +987,6 @@ TEST(VolumeReadRealData, TotalSegmentatorCt) {
               static_cast<unsigned long long>(v.table[0].voxels), v.voxel_count());
 }
 
+}  // namespace volume_read_test
 }  // namespace
 }  // namespace osteon

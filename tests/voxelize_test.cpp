@@ -28,6 +28,7 @@
 
 namespace osteon {
 namespace {
+namespace voxelize_test {
 
 namespace fs = std::filesystem;
 
@@ -569,5 +570,6 @@ TEST(VoxelizeCli, ErrorsExitTwoAndLeaveNothing) {
   EXPECT_EQ(left, std::vector<std::string>{"a.stl"});
 }
 
+}  // namespace voxelize_test
 }  // namespace
 }  // namespace osteon

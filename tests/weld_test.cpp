@@ -7,6 +7,7 @@
 
 namespace osteon {
 namespace {
+namespace weld_test {
 
 // Turns an indexed mesh into the soup an STL stores: three fresh vertices per triangle.
 Mesh to_soup(const Mesh& mesh) {
@@ -102,5 +103,6 @@ TEST(Degenerate, RepeatedIndexAndZeroAreaAreFoundAndRemoved) {
   }
 }
 
+}  // namespace weld_test
 }  // namespace
 }  // namespace osteon

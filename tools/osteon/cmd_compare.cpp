@@ -189,7 +189,7 @@ void print_rows(const HausdorffReport& r) {
   }
 }
 
-void print_header() {
+void print_distance_header() {
   std::printf("  %-10s %12s %12s %12s   %10s %10s %10s %12s %12s\n", "", "max", "mean", "rms",
               "max/diag", "mean/diag", "rms/diag", "diagonal", "samples");
 }
@@ -309,14 +309,14 @@ int run_compare(const CompareArgs& args) {
     std::printf("%zu parts paired by %s\n", pairs.size(), matched_by.c_str());
     for (const Pair& pair : pairs) {
       std::printf("\n%s  <->  %s\n", pair.a->name.c_str(), pair.b->name.c_str());
-      print_header();
+      print_distance_header();
       print_rows(pair.report);
     }
     std::printf("\noverall (every sample of every part, against its partner)\n");
   } else {
     std::printf("\n");
   }
-  print_header();
+  print_distance_header();
   print_rows(overall);
   const OneSidedDistance& s = overall.symmetric;
   std::printf(

@@ -109,7 +109,7 @@ void print_row(const std::string& label, const std::string& segments, const Segm
               fixed(s.one_minus_rand_index).c_str(), fixed(s.gce).c_str(), fixed(s.lce).c_str());
 }
 
-void print_header() {
+void print_scores_header() {
   std::printf("%-28s %8s %9s %7s %7s %7s %7s %7s %7s\n", "", "segments", "CD", "HD", "Rm", "Rf",
               "1-RI", "GCE", "LCE");
 }
@@ -171,7 +171,7 @@ int run_segeval(const SegevalArgs& args) {
       std::printf("%zu references, %zu pairs\n", references.size(),
                   references.size() * (references.size() - 1) / 2);
     }
-    print_header();
+    print_scores_header();
   }
   ScoreAverage average;
   nlohmann::json rows = nlohmann::json::array();
