@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <fcntl.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -20,6 +19,7 @@
 
 #include <zlib.h>
 
+#include "core/huge_pages.hpp"
 #include "osteon/volume.hpp"
 #include "volume_internal.hpp"
 
@@ -111,21 +111,6 @@ NotLabels to_label(T x, uint32_t* label) {
     *label = static_cast<uint32_t>(x);
   }
   return NotLabels::kNo;
-}
-
-// Asks for transparent huge pages under a large buffer not yet written: a 2 GB label volume
-// otherwise takes half a million page faults, a fifth of its reading time. Only a hint.
-void advise_huge_pages(void* data, size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-  constexpr uintptr_t kHuge = uintptr_t{2} << 20;
-  if (bytes < 32 * kHuge) return;
-  const uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
-  const uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~(kHuge - 1);
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-#else
-  (void)data;
-  (void)bytes;
-#endif
 }
 
 // Calls f(T{}) with T the C++ type of `type`.
@@ -293,7 +278,7 @@ class Decoder {
     ids_[0] = 0;
     if (reserve_all_) {
       volume_->voxels.reserve(static_cast<size_t>(voxel_count_));
-      advise_huge_pages(volume_->voxels.data(), volume_->voxels.capacity());
+      detail::advise_huge_pages(volume_->voxels.data(), volume_->voxels.capacity());
     }
     return visit_type(layout_.type, [&](auto tag) {
       using T = decltype(tag);
@@ -458,7 +443,7 @@ class Decoder {
       const uint64_t all = voxel_count_ * volume_->bytes_per_voxel;
       out.reserve(
           static_cast<size_t>(std::min(all, std::max(bytes, 2 * uint64_t{out.capacity()}))));
-      advise_huge_pages(out.data(), out.capacity());
+      detail::advise_huge_pages(out.data(), out.capacity());
     }
     out.resize(static_cast<size_t>(bytes));
     return {};

@@ -5,6 +5,8 @@
 #include <cassert>
 #include <utility>
 
+#include "core/huge_pages.hpp"
+
 // Cutting any triangle list into a closed oriented manifold corner table, and the checks the tests
 // use. See corner_table.hpp for the conventions.
 //
@@ -17,6 +19,8 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
   const uint32_t corners = static_cast<uint32_t>(indices.size());
   CornerTable table;
   table.vertex_count = vertex_count;
+  reserve_huge(&table.vertex.raw(), corners);
+  reserve_huge(&table.opposite.raw(), corners);
   table.vertex.resize(corners);
   for (uint32_t c = 0; c < corners; ++c) table.vertex[CornerIndex(c)] = VertexIndex(indices[c]);
   table.opposite.assign(corners, kNoCorner);
@@ -32,7 +36,9 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
     uint32_t corner;
     bool operator<(const Edge& e) const { return to < e.to || (to == e.to && corner < e.corner); }
   };
-  std::vector<Edge> edges(corners);
+  std::vector<Edge> edges;
+  reserve_huge(&edges, corners);
+  edges.resize(corners);
   {
     std::vector<uint32_t> fill(start.begin(), start.end() - 1);
     for (uint32_t c = 0; c < corners; ++c) {
@@ -79,7 +85,9 @@ ClosedManifold close_to_manifold(const std::vector<uint32_t>& indices, uint32_t 
   // 1. Fans: the corners of a vertex linked through paired edges. Each fan after a vertex's first
   //    becomes a new vertex. A fan is a cycle (an interior vertex) or a path from the corner whose
   //    incoming edge is unpaired to the corner whose outgoing edge is unpaired.
-  IndexVector<CornerIndex, VertexIndex> split(corners, kNoVertex);
+  IndexVector<CornerIndex, VertexIndex> split;
+  reserve_huge(&split.raw(), corners);
+  split.assign(corners, kNoVertex);
   std::vector<uint8_t> has_fan(vertex_count, 0);
   uint32_t next_id = vertex_count;
   for (uint32_t i = 0; i < corners; ++i) {

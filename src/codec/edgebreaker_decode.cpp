@@ -335,6 +335,7 @@ OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_
   // vertex has corners, so only where dummy faces are dropped can one end up unused (in a
   // corrupt stream): check it there.
   const size_t wanted = 3 * static_cast<size_t>(triangle_count);
+  reserve_huge(&out->indices, wanted);
   out->indices.resize(wanted);
   uint32_t* indices = out->indices.data();
   NewestTriangles& newest = out->newest;
@@ -383,6 +384,7 @@ OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_
   // corrupt stream may leave one free); across a dummy face's edge is nothing. Without dummy
   // faces, decoded faces are the output's.
   for (uint32_t v = 2; v < vertex_count + 2; ++v) first[v] += first[v - 1];
+  reserve_huge(&newest.entries, triangle_count);
   newest.entries.resize(triangle_count);
   NewestTriangle* entries = newest.entries.data();
   const uint32_t corners = 3 * faces;

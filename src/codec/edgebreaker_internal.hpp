@@ -12,6 +12,7 @@
 #include "codec/connectivity.hpp"
 #include "codec/corner_table.hpp"
 #include "core/byte_io.hpp"
+#include "core/huge_pages.hpp"
 #include "osteon/status.hpp"
 
 // What edgebreaker_encode.cpp and edgebreaker_decode.cpp share: the CLERS alphabet, the symbol
@@ -52,6 +53,7 @@ class ScratchArray {
  public:
   void allocate(size_t n) {
     data_.reset(static_cast<T*>(::operator new[](n * sizeof(T))));
+    advise_huge_pages(data_.get(), n * sizeof(T));
     size_ = n;
   }
   T& operator[](I i) { return data_.get()[i.value]; }
