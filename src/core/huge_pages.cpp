@@ -9,8 +9,9 @@
 
 namespace osteon::detail {
 
+#if defined(__linux__) && !defined(__EMSCRIPTEN__)
 void advise_huge_pages(void* data, size_t bytes) {
-#if defined(__linux__) && !defined(__EMSCRIPTEN__) && defined(MADV_HUGEPAGE)
+#if defined(MADV_HUGEPAGE)
   constexpr uintptr_t kHuge = uintptr_t{2} << 20;
   const uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
   const uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~(kHuge - 1);
@@ -20,5 +21,6 @@ void advise_huge_pages(void* data, size_t bytes) {
   (void)bytes;
 #endif
 }
+#endif
 
 }  // namespace osteon::detail

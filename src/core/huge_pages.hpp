@@ -12,6 +12,7 @@
 
 namespace osteon::detail {
 
+#if defined(__linux__) && !defined(__EMSCRIPTEN__)
 /// Asks for huge pages under the 2 MiB-aligned part of [data, data + bytes), which must not be
 /// written yet for the hint to pay.
 void advise_huge_pages(void* data, size_t bytes);
@@ -23,5 +24,11 @@ void reserve_huge(std::vector<T>* v, size_t n) {
   v->reserve(n);
   if (v->empty()) advise_huge_pages(v->data(), n * sizeof(T));
 }
+#else
+// Elsewhere (the WebAssembly decoder, whose download is budgeted) both compile to nothing.
+inline void advise_huge_pages(void*, size_t) {}
+template <class T>
+void reserve_huge(std::vector<T>*, size_t) {}
+#endif
 
 }  // namespace osteon::detail
