@@ -8,6 +8,8 @@
 
 #include <Eigen/Dense>
 
+#include "eigen_interop.hpp"
+
 // Based on: S. Umeyama, "Least-squares estimation of transformation parameters between two point
 // patterns", IEEE PAMI 13(4), 1991 (rotation from the SVD of the cross-covariance, the sign of its
 // smallest singular direction chosen for the determinant, scale from the singular values);
@@ -21,16 +23,6 @@
 // in places is not ignored.
 
 namespace osteon::detail {
-
-namespace {
-
-using Matrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-
-Eigen::Vector3d eig(const Vec3d& v) {
-  return {v.x, v.y, v.z};
-}
-
-}  // namespace
 
 Vec3d apply(const Similarity& s, const Vec3d& x) {
   return multiply(s.linear, x) + s.translation;

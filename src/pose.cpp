@@ -10,6 +10,8 @@
 
 #include <Eigen/Dense>
 
+#include "eigen_interop.hpp"
+
 // Based on: Zhou, Jia & Su (2018), eq. (5)-(9) (translation, scale and symmetry alignment);
 // D. Vranic, D. Saupe, "3D shape descriptor based on 3D Fourier transform" / "continuous PCA"
 // (2001): principal axes from the covariance of the surface, integrated exactly over each triangle
@@ -24,12 +26,6 @@
 namespace osteon::detail {
 
 namespace {
-
-using Matrix3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-
-Eigen::Vector3d eig(const Vec3d& v) {
-  return {v.x, v.y, v.z};
-}
 
 Vec3d position(const Mesh& mesh, uint32_t i) {
   return to_double(mesh.positions[i]);

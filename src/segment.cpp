@@ -34,7 +34,7 @@ constexpr float kFar = std::numeric_limits<float>::infinity();
 /// Without a target count, a component is expected to cover about this share of its part.
 constexpr double kAutomaticComponents = 8;
 /// A region covering less than this share of the area expected of a component is a sliver.
-constexpr double kSliver = 0.05;
+constexpr double kSliverShare = 0.05;
 
 /// Multi-source Dijkstra. Each source s enters with distance 0 and owner[s] already set; a
 /// triangle whose distance improves takes the owner of the triangle it was reached from. With
@@ -257,8 +257,8 @@ class Merger {
     const double expected = expected_[part_of_region_[a]];
     const double smaller = std::min(area_[a], area_[b]);
     const double share = expected > 0 ? std::min(1.0, smaller / expected) : 1.0;
-    // A sliver (under kSliver of a component) merges before any border is weighed.
-    const double cost = share < kSliver ? share - 1 : concavity * std::sqrt(share);
+    // A sliver (under kSliverShare of a component) merges before any border is weighed.
+    const double cost = share < kSliverShare ? share - 1 : concavity * std::sqrt(share);
     heap_.push({cost, a, b, stamp_[a], stamp_[b]});
   }
 

@@ -218,16 +218,16 @@ PatchMesh patch_mesh(const std::vector<LabelNet>& nets,
 // ---- checks
 // --------------------------------------------------------------------------------------
 
-struct HalfEdge {
+struct DirectedEdge {
   uint32_t from, to, corner;  // corner: where `from` is in the index list
 };
-bool operator<(const HalfEdge& x, const HalfEdge& y) {
+bool operator<(const DirectedEdge& x, const DirectedEdge& y) {
   return x.from != y.from ? x.from < y.from : x.to != y.to ? x.to < y.to : x.corner < y.corner;
 }
 
 /// The half-edges of `count` indices, sorted.
-std::vector<HalfEdge> half_edges(const uint32_t* indices, size_t count) {
-  std::vector<HalfEdge> h(count / 3 * 3);
+std::vector<DirectedEdge> half_edges(const uint32_t* indices, size_t count) {
+  std::vector<DirectedEdge> h(count / 3 * 3);
   for (size_t i = 0; i < h.size(); ++i) {
     const size_t t = i - i % 3;
     h[i] = {indices[i], indices[t + (i % 3 + 1) % 3], uint32_t(i)};
@@ -237,9 +237,9 @@ std::vector<HalfEdge> half_edges(const uint32_t* indices, size_t count) {
 }
 
 /// The half-edge (from, to) in h[begin, end), or end.
-size_t find_half_edge(const std::vector<HalfEdge>& h, size_t begin, size_t end, uint32_t from,
+size_t find_half_edge(const std::vector<DirectedEdge>& h, size_t begin, size_t end, uint32_t from,
                       uint32_t to) {
-  auto it = std::lower_bound(h.begin() + begin, h.begin() + end, HalfEdge{from, to, 0});
+  auto it = std::lower_bound(h.begin() + begin, h.begin() + end, DirectedEdge{from, to, 0});
   return it != h.begin() + end && it->from == from && it->to == to ? size_t(it - h.begin()) : end;
 }
 
@@ -249,7 +249,7 @@ size_t find_half_edge(const std::vector<HalfEdge>& h, size_t begin, size_t end, 
 template <class MayBeOpen>
 bool manifold_defects(const uint32_t* indices, size_t count, MayBeOpen&& may_be_open,
                       std::vector<uint32_t>* bad) {
-  const std::vector<HalfEdge> h = half_edges(indices, count);
+  const std::vector<DirectedEdge> h = half_edges(indices, count);
   const size_t n = h.size();
   bool ok = true;
   auto fail = [&](uint32_t v) {
@@ -258,7 +258,7 @@ bool manifold_defects(const uint32_t* indices, size_t count, MayBeOpen&& may_be_
   };
   std::vector<char> open(n, 0);
   for (size_t i = 0; i < n; ++i) {
-    const HalfEdge& e = h[i];
+    const DirectedEdge& e = h[i];
     if (e.from == e.to) {
       fail(e.from);
     } else if (i + 1 < n && h[i + 1].from == e.from && h[i + 1].to == e.to) {
@@ -699,7 +699,7 @@ void simplify_patch(const std::vector<LabelNet>& nets,
   if (!seeds.empty()) freeze_around(m, patch.frozen, std::move(seeds), 1 << patch.rounds);
   // The patch's own border: the extracted half-edges without a twin.
   std::vector<uint64_t> border;
-  for (const HalfEdge& e : half_edges(m.indices.data(), m.indices.size())) {
+  for (const DirectedEdge& e : half_edges(m.indices.data(), m.indices.size())) {
     border.push_back(uint64_t(e.from) << 32 | e.to);
   }
   std::vector<uint64_t> twins(border.size());

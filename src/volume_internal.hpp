@@ -28,6 +28,19 @@
 
 namespace osteon::detail {
 
+// ---- text in headers and label tables --------------------------------------------------------
+
+inline bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\n' || c == '\r';
+}
+
+/// `s` without the spaces, tabs and line ends at either end.
+inline std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
+  return s;
+}
+
 // ---- the voxels' type ----------------------------------------------------------------------
 
 enum class VoxelType {
