@@ -6,23 +6,34 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/deps.sh test
 jobs=$(nproc)
+# Each stage says how long it took, so that the command's budget can be kept.
+stage_start=$SECONDS
+stage() {
+  [ -n "${stage_name:-}" ] && echo "== ${stage_name}: $((SECONDS - stage_start)) s"
+  stage_name=$1
+  stage_start=$SECONDS
+  [ -n "$1" ] && echo "== $1"
+  return 0
+}
 
-echo "== g++ Release, -Werror"
+stage "g++ Release, -Werror"
 cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=g++ \
   -DOSTEON_WERROR=ON -DOSTEON_BUILD_TESTS=ON >/dev/null
 cmake --build build/release -j"$jobs"
 ctest --test-dir build/release -j"$jobs" --output-on-failure
 
-echo "== WebAssembly decoder (emscripten) against the native decoder"
+stage "WebAssembly decoder (emscripten) against the native decoder"
 (cd web && npm ci --no-audit --no-fund && JOBS="$jobs" OSTEON_WERROR=1 npm run build:decoder \
   && OSTEON_CLI="$PWD/../build/release/osteon" npm test)
 
-echo "== Viewer (three.js) in headless Chromium"
+stage "Viewer (three.js) in headless Chromium"
 (cd web && npm run build:viewer && OSTEON_CLI="$PWD/../build/release/osteon" npm run test:browser)
 
-echo "== clang ASan+UBSan, -Werror"
+stage "clang ASan+UBSan, -Werror"
 cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DOSTEON_WERROR=ON -DOSTEON_BUILD_TESTS=ON -DOSTEON_SANITIZE=address,undefined >/dev/null
 cmake --build build/asan -j"$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build/asan -j"$jobs" --output-on-failure
+stage ""
+echo "== every test passed in ${SECONDS} s"
