@@ -39,13 +39,13 @@ std::vector<uint32_t> connected_pieces(const Mesh& mesh, uint32_t* pieces) {
     }
   }
   // Pieces numbered in order of their first triangle.
-  constexpr uint32_t kNone = UINT32_MAX;
-  std::vector<uint32_t> piece_of_root(mesh.positions.size(), kNone);
+  constexpr uint32_t kNoPiece = UINT32_MAX;
+  std::vector<uint32_t> piece_of_root(mesh.positions.size(), kNoPiece);
   std::vector<uint32_t> triangle_piece(triangles);
   uint32_t count = 0;
   for (size_t t = 0; t < triangles; ++t) {
     const uint32_t root = find_root(parent, mesh.indices[3 * t]);
-    if (piece_of_root[root] == kNone) piece_of_root[root] = count++;
+    if (piece_of_root[root] == kNoPiece) piece_of_root[root] = count++;
     triangle_piece[t] = piece_of_root[root];
   }
   *pieces = count;
@@ -61,7 +61,7 @@ std::vector<Mesh> split_connected(const Mesh& mesh) {
   }
   uint32_t pieces = 0;
   const std::vector<uint32_t> triangle_piece = connected_pieces(mesh, &pieces);
-  constexpr uint32_t kNone = UINT32_MAX;
+  constexpr uint32_t kNoPiece = UINT32_MAX;
   if (pieces <= 1) return {mesh};
 
   std::vector<Mesh> out(pieces);
@@ -75,14 +75,14 @@ std::vector<Mesh> split_connected(const Mesh& mesh) {
     out[k].label = mesh.label;
   }
   // Each piece keeps its vertices in their original order.
-  std::vector<uint32_t> new_index(mesh.positions.size(), kNone);
-  std::vector<uint32_t> vertex_piece(mesh.positions.size(), kNone);
+  std::vector<uint32_t> new_index(mesh.positions.size(), kNoPiece);
+  std::vector<uint32_t> vertex_piece(mesh.positions.size(), kNoPiece);
   for (size_t t = 0; t < triangles; ++t) {
     for (int k = 0; k < 3; ++k) vertex_piece[mesh.indices[3 * t + k]] = triangle_piece[t];
   }
   const bool normals = mesh.normals.size() == mesh.positions.size();
   for (size_t v = 0; v < mesh.positions.size(); ++v) {
-    if (vertex_piece[v] == kNone) continue;  // unreferenced: dropped
+    if (vertex_piece[v] == kNoPiece) continue;  // unreferenced: dropped
     Mesh& piece = out[vertex_piece[v]];
     new_index[v] = uint32_t(piece.positions.size());
     piece.positions.push_back(mesh.positions[v]);
