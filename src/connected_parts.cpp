@@ -16,6 +16,9 @@ namespace osteon {
 
 namespace {
 
+/// No piece (yet): a root not numbered, a vertex no triangle uses.
+constexpr uint32_t kNoPiece = UINT32_MAX;
+
 uint32_t find_root(std::vector<uint32_t>& parent, uint32_t v) {
   while (parent[v] != v) {
     parent[v] = parent[parent[v]];
@@ -39,7 +42,6 @@ std::vector<uint32_t> connected_pieces(const Mesh& mesh, uint32_t* pieces) {
     }
   }
   // Pieces numbered in order of their first triangle.
-  constexpr uint32_t kNoPiece = UINT32_MAX;
   std::vector<uint32_t> piece_of_root(mesh.positions.size(), kNoPiece);
   std::vector<uint32_t> triangle_piece(triangles);
   uint32_t count = 0;
@@ -61,7 +63,6 @@ std::vector<Mesh> split_connected(const Mesh& mesh) {
   }
   uint32_t pieces = 0;
   const std::vector<uint32_t> triangle_piece = connected_pieces(mesh, &pieces);
-  constexpr uint32_t kNoPiece = UINT32_MAX;
   if (pieces <= 1) return {mesh};
 
   std::vector<Mesh> out(pieces);

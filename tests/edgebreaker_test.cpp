@@ -502,14 +502,6 @@ std::vector<Measured> round_trip_folder(const std::string& folder) {
     files.push_back(entry.path().string());
   }
   std::sort(files.begin(), files.end());
-#if defined(OSTEON_TEST_ASAN)
-  // Under AddressSanitizer every file is read but only parts up to this size are coded: the
-  // large ones repeat the same code paths at six times the cost; the Release run codes them all.
-  constexpr size_t kMaxTriangles = 20000;
-#else
-  constexpr size_t kMaxTriangles = SIZE_MAX;
-#endif
-  size_t left = 0;
   std::vector<Measured> rows;
   for (const std::string& file : files) {
     Result<Scene> scene = read_path(file);
@@ -518,10 +510,6 @@ std::vector<Measured> round_trip_folder(const std::string& folder) {
       continue;
     }
     for (const Mesh& part : scene->parts) {
-      if (part.triangle_count() > kMaxTriangles) {
-        ++left;
-        continue;
-      }
       Mesh mesh = cleaned(part);
       const std::string name =
           file.substr(folder.size() + 1) + (scene->parts.size() > 1 ? "/" + part.name : "");
@@ -529,10 +517,6 @@ std::vector<Measured> round_trip_folder(const std::string& folder) {
       EXPECT_TRUE(r.ok) << name;
       rows.push_back({name, mesh.triangle_count(), mesh.vertex_count(), r.bytes, r.decode_seconds});
     }
-  }
-  if (left > 0) {
-    std::printf("[ skipped  ] %s: %zu parts over %zu triangles (the Release run codes them)\n",
-                folder.c_str(), left, kMaxTriangles);
   }
   return rows;
 }
