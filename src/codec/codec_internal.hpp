@@ -9,6 +9,12 @@
 // (src/codec/codec_decode.cpp) share: the header's constants and the checksum. docs/FORMAT.md
 // specifies every byte.
 
+#if defined(__GNUC__)
+#define OSTEON_CRC_TABLE_NOINLINE __attribute__((noinline))
+#else
+#define OSTEON_CRC_TABLE_NOINLINE
+#endif
+
 namespace osteon::detail {
 
 constexpr uint8_t kStreamMagic[4] = {'O', 'S', 'T', 'M'};
@@ -23,17 +29,21 @@ constexpr size_t kStreamChecksumBytes = 4;
 constexpr uint64_t kMaxTrianglesPerByte = 1024;
 constexpr uint32_t kMaxTriangles = uint32_t{1} << 28;
 
+/// CRC-32's byte table, computed on first use: 256 entries of loop rather than 1 KB of
+/// incompressible constants in the WebAssembly decoder's download.
+OSTEON_CRC_TABLE_NOINLINE inline std::array<uint32_t, 256> make_crc32_table() {
+  std::array<uint32_t, 256> t{};
+  for (uint32_t i = 0; i < 256; ++i) {
+    uint32_t c = i;
+    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    t[i] = c;
+  }
+  return t;
+}
+
 /// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320).
 inline uint32_t crc32(const uint8_t* data, size_t size) {
-  static const std::array<uint32_t, 256> table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
+  static const std::array<uint32_t, 256> table = make_crc32_table();
   uint32_t crc = 0xffffffffu;
   for (size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xff] ^ (crc >> 8);
   return crc ^ 0xffffffffu;

@@ -132,8 +132,7 @@ Result<std::vector<Vec3>> decode_normals(ByteReader& in, const std::vector<uint3
     }
     if (!dec.ok()) {
       return error(ErrorCode::kInvalidData, source,
-                   "normals: corrupt residual for vertex " + std::to_string(v),
-                   at_byte(in.offset()));
+                   message("normals: corrupt residual for vertex %", {v}), at_byte(in.offset()));
     }
     normals[v] = octahedral_decode(uint32_t(code[0]), uint32_t(code[1]), bits);
   }

@@ -220,9 +220,18 @@ inline std::string quote_token(std::string_view token) {
   return out + "'";
 }
 
-/// "byte 84" for messages.
+/// "byte 84" for messages. Digits by hand: std::to_string would bring its tables into the
+/// WebAssembly decoder's budgeted download for this one use.
 inline std::string at_byte(size_t offset) {
-  return "byte " + std::to_string(offset);
+  char digits[20];
+  int n = 0;
+  do {
+    digits[n++] = static_cast<char>('0' + offset % 10);
+    offset /= 10;
+  } while (offset != 0);
+  std::string out = "byte ";
+  while (n > 0) out += digits[--n];
+  return out;
 }
 
 }  // namespace osteon

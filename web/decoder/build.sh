@@ -50,13 +50,13 @@ for js in osteon_decoder.mjs worker.mjs pool.mjs; do
 done
 [ -x "$esbuild" ] || echo "osteon: esbuild not installed (cd web && npm ci): the wrapper is not minified"
 
-# The wrapper supplies exactly these imports; a new one (a libc call reaching for the console or
+# The wrapper supplies exactly this import; a new one (a libc call reaching for the console or
 # the clock) would fail at instantiation, so fail here instead.
 node --input-type=module - "$out/osteon_decoder.wasm" "${exports[@]}" <<'EOF'
 import { readFileSync } from 'node:fs';
 const [file, ...wanted] = process.argv.slice(2);
 const module = new WebAssembly.Module(readFileSync(file));
-const allowed = new Set(['env.emscripten_notify_memory_growth', 'wasi_snapshot_preview1.proc_exit']);
+const allowed = new Set(['wasi_snapshot_preview1.proc_exit']);
 const bad = WebAssembly.Module.imports(module).map((i) => `${i.module}.${i.name}`)
   .filter((name) => !allowed.has(name));
 const have = new Set(WebAssembly.Module.exports(module).map((e) => e.name));

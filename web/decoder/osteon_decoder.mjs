@@ -43,10 +43,9 @@ export async function createDecoder(options = {}) {
   }
   let exports = null;
 
-  // The only imports the module has (build.sh fails when the list changes): the allocator's
-  // growth notice, and the exit an abort() takes (out of memory, a failed libc++ check).
+  // The only import the module has (build.sh fails when the list changes): the exit an abort()
+  // takes (out of memory, a failed libc++ check).
   const imports = {
-    env: { emscripten_notify_memory_growth() {} },
     wasi_snapshot_preview1: {
       proc_exit(code) {
         throw new Error(`the decoder aborted (exit ${code})`);
