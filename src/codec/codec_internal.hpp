@@ -5,15 +5,11 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "codec/code_placement.hpp"
+
 // What the codec's container encoder (src/codec/codec_encode.cpp) and decoder
 // (src/codec/codec_decode.cpp) share: the header's constants and the checksum. docs/FORMAT.md
 // specifies every byte.
-
-#if defined(__GNUC__)
-#define OSTEON_CRC_TABLE_NOINLINE __attribute__((noinline))
-#else
-#define OSTEON_CRC_TABLE_NOINLINE
-#endif
 
 namespace osteon::detail {
 
@@ -31,7 +27,7 @@ constexpr uint32_t kMaxTriangles = uint32_t{1} << 28;
 
 /// CRC-32's byte table, computed on first use: 256 entries of loop rather than 1 KB of
 /// incompressible constants in the WebAssembly decoder's download.
-OSTEON_CRC_TABLE_NOINLINE inline std::array<uint32_t, 256> make_crc32_table() {
+OSTEON_NOINLINE inline std::array<uint32_t, 256> make_crc32_table() {
   std::array<uint32_t, 256> t{};
   for (uint32_t i = 0; i < 256; ++i) {
     uint32_t c = i;

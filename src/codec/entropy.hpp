@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "codec/code_placement.hpp"
 #include "core/byte_io.hpp"
 #include "osteon/status.hpp"
 
@@ -24,21 +25,6 @@
 // contexts. Contexts are chosen by the caller from data both sides already have (previous
 // symbols, valences, ...), so the model adapts to each mesh: tables are measured on the stream
 // being coded and sent with it (semi-static adaptation), which keeps decoding a table lookup.
-
-// Code placement for the decoder, which WebAssembly pages download (its size is budgeted): the
-// cold functions (stream headers, frequency tables, error messages) are optimised for size where
-// the compiler can (clang, which builds the WebAssembly decoder), and the hot loops are kept out
-// of them, so that they are not optimised for size along with them.
-#if defined(__clang__)
-#define OSTEON_COLD_FUNCTION __attribute__((minsize))
-#else
-#define OSTEON_COLD_FUNCTION
-#endif
-#if defined(__GNUC__) || defined(__clang__)
-#define OSTEON_NOINLINE __attribute__((noinline))
-#else
-#define OSTEON_NOINLINE
-#endif
 
 namespace osteon::detail {
 
