@@ -578,11 +578,7 @@ OSTEON_COLD_FUNCTION std::string message(const char* pattern,
       out += *p;
       continue;
     }
-    char digits[20];
-    int n = 0;
-    for (uint64_t v = *next++; n == 0 || v != 0; v /= 10)
-      digits[n++] = static_cast<char>('0' + v % 10);
-    while (n > 0) out += digits[--n];
+    append_decimal(*next++, &out);
   }
   return out;
 }

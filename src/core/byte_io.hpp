@@ -220,17 +220,22 @@ inline std::string quote_token(std::string_view token) {
   return out + "'";
 }
 
-/// "byte 84" for messages. Digits by hand: std::to_string would bring its tables into the
-/// WebAssembly decoder's budgeted download for this one use.
-inline std::string at_byte(size_t offset) {
+/// Appends `value` in decimal. By hand, for messages: std::to_string would bring its tables into
+/// the WebAssembly decoder's budgeted download.
+inline void append_decimal(uint64_t value, std::string* out) {
   char digits[20];
   int n = 0;
   do {
-    digits[n++] = static_cast<char>('0' + offset % 10);
-    offset /= 10;
-  } while (offset != 0);
+    digits[n++] = static_cast<char>('0' + value % 10);
+    value /= 10;
+  } while (value != 0);
+  while (n > 0) out->push_back(digits[--n]);
+}
+
+/// "byte 84" for messages.
+inline std::string at_byte(size_t offset) {
   std::string out = "byte ";
-  while (n > 0) out += digits[--n];
+  append_decimal(offset, &out);
   return out;
 }
 
