@@ -186,7 +186,7 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
     const opacity = Array.from({ length: parts }, (_, p) => (p === skull ? 0.3 : 1));
     await page.evaluate((o) => window.osteon.setPartStyle({ opacity: o }), opacity);
     await settle(page);
-    const first = await page.evaluate(() => ({ partsMs: window.osteon.partsMs, renderMs: window.osteon.renderMs }));
+    const first = await page.evaluate(() => ({ partsMs: window.osteon.partsMs, renderMs: window.osteon.renderMs, gl: window.osteon.gl }));
     const xray = await shootCanvas(page, 'render-xray');
     const atlasRect = await bounds('atlas_c1');
     const [seen] = await compareShots(context, opaque.png, xray.png, box, loaded.background, [atlasRect]);
@@ -237,7 +237,10 @@ describe('per-part colours, opacity and x-ray picks', { skip: skip ?? false }, (
     console.log(`# colour change, all opaque: ${line(recolour)}`);
     console.log(`# the first parts made see-through (new meshes and materials; the programs compiled once the skeleton was drawn): setParts ${first.partsMs.toFixed(2)} ms + render() ${first.renderMs.toFixed(2)} ms`);
     console.log(`# pick round trip on opaque bones: median ${pickTimes.sort((a, b) => a - b)[pickTimes.length >> 1].toFixed(1)} ms`);
-    assert.ok(seeThrough.partsMs + seeThrough.renderMs < 16, 'an opacity change costs under 16 ms of the worker\'s time');
+    // What keeps a change cheap, whatever this machine's speed: once the first see-through part
+    // has its programs, no change of opacity or colour links another or uploads a geometry.
+    const gl = await page.evaluate(() => window.osteon.gl);
+    assert.deepEqual(gl, first.gl, `WebGL objects after the first see-through part ${JSON.stringify(first.gl)}, after 12 changes ${JSON.stringify(gl)}`);
     assert.deepEqual(problems, []);
     await context.close();
   });

@@ -114,6 +114,9 @@ export function createView({ canvas, context, manifest, width, height, pixelRati
       renderer.render(scene, camera);
     },
 
+    /// The WebGL objects three.js holds: linked programs and uploaded geometries.
+    glCounts: () => ({ programs: renderer.info.programs?.length ?? 0, geometries: renderer.info.memory.geometries }),
+
     /// Compiles the programs the bone material needs (a plain mesh and an instanced batch with
     /// instance colours, under this scene's lights) on stand-in geometry, and draws them once, on
     /// the canvas: linking and the driver's own pipeline for the canvas's framebuffer happen at

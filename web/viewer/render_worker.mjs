@@ -60,7 +60,7 @@
 //   { type: 'render', seq }                 draw; the frame reports the seq
 //   { type: 'shown', frame }                the page has had an animation frame since that frame
 // Messages to the page (times are the page's performance.now()):
-//   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]], renderMs, partsMs }
+//   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]], renderMs, partsMs, gl }
 //                                                     a frame was drawn (render() returned, or
 //                                                     first_frames.mjs's draw), with
 //                                                     the page's changes up to `seq`; `drawn`
@@ -68,7 +68,8 @@
 //                                                     renderMs: how long three.js's render() took
 //                                                     on this thread (not the GPU's work),
 //                                                     partsMs: setParts, when a 'parts' message
-//                                                     was applied since the last frame
+//                                                     was applied since the last frame,
+//                                                     gl: { programs, geometries } three.js holds
 //   { type: 'failed', ids, error, at, level? }        a mesh the scene refused (`level`: a finer
 //                                                     level's, the component stays drawn)
 //   { type: 'fatal', error, at }                      nothing will be drawn
@@ -321,7 +322,7 @@ function drawFrame(r) {
   r.frame++;
   const { partsMs } = r;
   r.partsMs = undefined;
-  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added, levels: r.view.takeLevelChanges(), renderMs, partsMs });
+  post(r, { type: 'frame', frame: r.frame, seq: r.seqSeen, at: now(r), drawn: added, levels: r.view.takeLevelChanges(), renderMs, partsMs, gl: r.view.glCounts() });
   if (r.queue.length) requestDataFrame(r);
   else if (!r.seeThroughReady && r.drawnComponents >= r.manifest.components.length) {
     // Every bone is on screen: the see-through parts' programs can compile now.

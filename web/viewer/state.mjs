@@ -97,6 +97,7 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
       frames: 0,               // frames the renderer has drawn
       renderMs: null,          // how long the renderer's last render() took on its thread (not the GPU's work)
       partsMs: null,           // how long it took to apply the last 'parts' message (render_three.mjs setParts)
+      gl: null,                // after the last frame, the WebGL objects three.js holds: { programs, geometries }
       framePending: false,     // a change is waiting for its frame
       renderer: null,          // 'worker' (OffscreenCanvas) or 'page'
       timings: {},             // the page's bootstrap: manifestResponse, manifest, threeFetched; the renderer's start: started, context, firstFrames (absent when three.js drew the first frame), three, view, compiled

@@ -83,6 +83,7 @@ export function frameDrawn(state, message) {
   state.report.frames = message.frame;
   if (message.renderMs !== undefined) state.report.renderMs = message.renderMs;
   if (message.partsMs !== undefined) state.report.partsMs = message.partsMs;
+  if (message.gl) state.report.gl = message.gl;
   state.drawnSeq = Math.max(state.drawnSeq, message.seq ?? 0);
   state.report.framePending = state.pagePending || state.changeSeq > state.drawnSeq;
 }
