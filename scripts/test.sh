@@ -41,8 +41,14 @@ export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktra
 shards=8
 (cd build/asan && timeout 1200 ./serve_test --gtest_brief=1 >serve_test.log 2>&1) &
 serve=$!
+# Three tests that reproduce fixed results on whole real datasets (two packages' bytes, the Princeton
+# benchmark's published rows) are left to the Release run: under the sanitizers they were a fifth
+# of this run's time, and the code they drive is checked here by tests on the same data (Pack.*,
+# FindRepeats.MyoSimLeftAndRightBonesPairUp, SegEvalCli.*).
+asan_skip='GoldenOutput.BodyParts3DPackage:GoldenOutput.MyoSimPackageWithMirroredRepeats'
+asan_skip+=':SegEvalBenchmark.ReproducesTheHumanNoneAndEveryRows'
 seq 0 $((shards - 1)) | (cd build/asan && xargs -P "$jobs" -I{} env GTEST_TOTAL_SHARDS=$shards \
-  GTEST_SHARD_INDEX={} timeout 1200 ./osteon_tests --gtest_brief=1)
+  GTEST_SHARD_INDEX={} timeout 1200 ./osteon_tests --gtest_brief=1 --gtest_filter="-$asan_skip")
 wait "$serve" || { cat build/asan/serve_test.log; echo "== serve_test failed under ASan"; exit 1; }
 tail -n 2 build/asan/serve_test.log
 ctest --test-dir build/asan -R '^Layers[.]' --output-on-failure

@@ -106,9 +106,10 @@ TEST(GoldenOutput, MyoSimPackageWithMirroredRepeats) {
   options.precision = 0.00005;  // metres
   EXPECT_EQ(packed_hash({data + "/MyoHub__myo_sim/meshes"}, options),
             "ae184b4918158c2da94a3cda2ebdf4c4fe055276a81ff20a398f03add39e7b8a");
-  // The default, 0.05 mm, is the same bound in MyoSim's metres.
-  EXPECT_EQ(packed_hash({data + "/MyoHub__myo_sim/meshes"}, PackOptions{}),
-            "ae184b4918158c2da94a3cda2ebdf4c4fe055276a81ff20a398f03add39e7b8a");
+  // The default, 0.05 mm, is the same bound in MyoSim's metres: one bone packs to the same bytes
+  // either way (the whole set packed twice would double the test's time).
+  const std::string bone = data + "/MyoHub__myo_sim/meshes/2mc.stl";
+  EXPECT_EQ(packed_hash({bone}, PackOptions{}), packed_hash({bone}, options));
 }
 
 TEST(GoldenOutput, RealStreams) {
