@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -284,9 +285,10 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   put_ids(copies);
   for (const auto& g : glue) writer.write_varint(g.second);
 
-  // The symbols under each context model the encoder tries; the smallest section wins.
-  std::vector<uint8_t> best, section;
+  // Each context model the encoder tries is sized by its planned tables (coded_bits), and only
+  // the smallest is coded.
   uint32_t best_model = 0;
+  std::optional<SymbolEncoder> best_coder;
   const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
   for (uint32_t model = 0; model < models; ++model) {
     SymbolContext context(kContextModels[model]);
@@ -295,13 +297,13 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
       coder.put(context.get(valences[k]), decoded_symbols[k]);
       context.update(decoded_symbols[k]);
     }
-    section.clear();
-    coder.append_to(&section);
-    if (model == 0 || section.size() < best.size()) {
-      best.swap(section);
+    if (!best_coder.has_value() || coder.coded_bits() < best_coder->coded_bits()) {
+      best_coder.emplace(std::move(coder));
       best_model = model;
     }
   }
+  std::vector<uint8_t> best;
+  best_coder->append_to(&best);
   bytes.push_back(static_cast<uint8_t>(best_model));
   bytes.insert(bytes.end(), best.begin(), best.end());
   return out;

@@ -320,12 +320,17 @@ struct LogTables {
   }
 };
 
+const LogTables& log_tables() {
+  static const LogTables logs;
+  return logs;
+}
+
 struct SizeEstimate {
+  const LogTables& logs = log_tables();
   uint64_t total = 0;
   double count_log_count = 0;
   double table_bits = 8;
   void add(uint32_t count) {
-    static const LogTables logs;
     total += count;
     if (count < LogTables::kSize) {
       count_log_count += logs.count_log_count[count];
@@ -338,7 +343,8 @@ struct SizeEstimate {
   }
   double bits() const {
     const double t = static_cast<double>(total);
-    return t * std::log2(t) - count_log_count + table_bits;
+    const double t_log_t = total < LogTables::kSize ? logs.count_log_count[total] : t * std::log2(t);
+    return t_log_t - count_log_count + table_bits;
   }
 };
 
@@ -379,7 +385,7 @@ double merged_bits(const SparseCounts& a, const SparseCounts& b, SparseCounts* o
 /// whose counts the group's table uses); rows of a group share a table.
 constexpr size_t kMergeCandidates = 512;
 constexpr uint64_t kMergeBelow = 4096;
-constexpr uint64_t kMergeWork = uint64_t{1} << 22;
+constexpr uint64_t kMergeWork = uint64_t{1} << 21;
 
 std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32_t rows,
                                      uint32_t alphabet) {
@@ -460,6 +466,54 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
     }
   }
   return group;
+}
+
+constexpr uint32_t kUnusedRow = 0xffffffffu;
+
+/// Groups the `used` rows of `counts` (`alphabet` wide; row[c]: context c's row, or kUnusedRow),
+/// adds each row's counts into its group's row, and writes the table block (docs/FORMAT.md,
+/// "Symbol section") to `block`: tables in context order, each defined where its first context
+/// occurs.
+void plan_tables(const std::vector<uint32_t>& row, uint32_t used, uint32_t alphabet,
+                 std::vector<uint32_t>* counts_in, BitWriter* block, SymbolPlan* plan) {
+  std::vector<uint32_t>& counts = *counts_in;
+  SymbolPlan& t = *plan;
+  // Contexts that share a table get the sum of their counts; group[row] is the row holding it.
+  t.group = group_contexts(counts, used, alphabet);
+  for (uint32_t r = 0; r < used; ++r) {
+    if (t.group[r] == r) continue;
+    for (uint32_t s = 0; s < alphabet; ++s) {
+      counts[size_t{t.group[r]} * alphabet + s] += counts[size_t{r} * alphabet + s];
+    }
+  }
+  t.freq.assign(counts.size(), 0);
+  t.start.assign(counts.size(), 0);
+  std::vector<uint32_t> table_index(used, kUnusedRow);  // per group row, in definition order
+  uint32_t tables = 0;
+  block->gamma(used);
+  uint32_t previous = ~0u;
+  for (uint32_t c = 0; c < row.size(); ++c) {
+    if (row[c] == kUnusedRow) continue;
+    block->gamma(c - previous);
+    previous = c;
+    const uint32_t g = t.group[row[c]];
+    if (table_index[g] != kUnusedRow) {  // a table defined for an earlier context
+      block->gamma(table_index[g] + 2);
+      continue;
+    }
+    block->gamma(1);  // a new table follows
+    table_index[g] = tables++;
+    const size_t base = size_t{g} * alphabet;
+    const auto [model, code] = choose_model(&counts[base], alphabet);
+    write_model(block, model, code);
+    const std::vector<uint32_t> f = normalize(model.weights);
+    uint32_t cumulative = 0;
+    for (size_t i = 0; i < f.size(); ++i) {
+      t.freq[base + model.symbols[i]] = static_cast<uint16_t>(f[i]);
+      t.start[base + model.symbols[i]] = static_cast<uint16_t>(cumulative);
+      cumulative += f[i];
+    }
+  }
 }
 
 /// Messages for one section: "bone.osteon: connectivity: what (byte N)".
@@ -595,6 +649,7 @@ void SymbolEncoder::put(uint32_t context, uint32_t symbol) {
   assert(context < contexts_ && symbol < alphabet_);
   assert(queued_.size() < kMaxSymbols);
   queued_.push_back(context << kProbBits | symbol);
+  plan_.reset();
 }
 
 void SymbolEncoder::put_bits(uint32_t value, int count) {
@@ -610,64 +665,47 @@ void SymbolEncoder::put_bits(uint32_t value, int count) {
   bit_count_ = end;
 }
 
+const SymbolPlan& SymbolEncoder::plan() const {
+  if (plan_.has_value()) return *plan_;
+  SymbolPlan& p = plan_.emplace();
+  if (queued_.empty()) return p;
+  // Count the symbols of each context that occurs; p.row[c] indexes its counts.
+  p.row.assign(contexts_, kUnusedRow);
+  uint32_t used = 0;
+  for (uint32_t q : queued_) {
+    if (p.row[q >> kProbBits] == kUnusedRow) p.row[q >> kProbBits] = used++;
+  }
+  std::vector<uint32_t> counts(size_t{used} * alphabet_, 0);
+  for (uint32_t q : queued_) ++counts[size_t{p.row[q >> kProbBits]} * alphabet_ + (q & (kProbScale - 1))];
+  BitWriter block;
+  plan_tables(p.row, used, alphabet_, &counts, &block, &p);
+  p.block = block.bytes();
+  // Each group row now holds its members' counts, all coded with its table.
+  p.bits = 8.0 * p.block.size();
+  for (uint32_t r = 0; r < used; ++r) {
+    if (p.group[r] != r) continue;
+    for (uint32_t s = 0; s < alphabet_; ++s) {
+      const size_t i = size_t{r} * alphabet_ + s;
+      if (counts[i] > 0) p.bits += counts[i] * (kProbBits - std::log2(p.freq[i]));
+    }
+  }
+  return p;
+}
+
+double SymbolEncoder::coded_bits() const { return plan().bits; }
+
 void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
   const size_t n = queued_.size();
   ByteWriter writer(out);
   writer.write_varint(n);
   writer.write_varint(bit_count_);
   if (n > 0) {
-    // Count the symbols of each context that occurs; row[c] indexes its counts.
-    constexpr uint32_t kUnused = 0xffffffffu;
-    std::vector<uint32_t> row(contexts_, kUnused);
-    uint32_t used = 0;
-    for (uint32_t q : queued_) {
-      if (row[q >> kProbBits] == kUnused) row[q >> kProbBits] = used++;
-    }
-    std::vector<uint32_t> counts(size_t{used} * alphabet_, 0);
-    for (uint32_t q : queued_)
-      ++counts[size_t{row[q >> kProbBits]} * alphabet_ + (q & (kProbScale - 1))];
-
-    // Contexts that share a table get the sum of their counts; group[row] is the row holding it.
-    const std::vector<uint32_t> group = group_contexts(counts, used, alphabet_);
-    for (uint32_t r = 0; r < used; ++r) {
-      if (group[r] == r) continue;
-      for (uint32_t s = 0; s < alphabet_; ++s) {
-        counts[size_t{group[r]} * alphabet_ + s] += counts[size_t{r} * alphabet_ + s];
-      }
-    }
-
-    // Tables, in context order, each defined where its first context occurs; freq/start per
-    // (group row, symbol) for the coder below.
-    std::vector<uint16_t> freq(counts.size(), 0);
-    std::vector<uint16_t> start(counts.size(), 0);
-    std::vector<uint32_t> table_index(used, kUnused);  // per group row, in definition order
-    uint32_t tables = 0;
-    BitWriter block;
-    block.gamma(used);
-    uint32_t previous = ~0u;
-    for (uint32_t c = 0; c < contexts_; ++c) {
-      if (row[c] == kUnused) continue;
-      block.gamma(c - previous);
-      previous = c;
-      const uint32_t g = group[row[c]];
-      if (table_index[g] != kUnused) {  // a table defined for an earlier context
-        block.gamma(table_index[g] + 2);
-        continue;
-      }
-      block.gamma(1);  // a new table follows
-      table_index[g] = tables++;
-      const size_t base = size_t{g} * alphabet_;
-      const auto [model, code] = choose_model(&counts[base], alphabet_);
-      write_model(&block, model, code);
-      const std::vector<uint32_t> f = normalize(model.weights);
-      uint32_t cumulative = 0;
-      for (size_t i = 0; i < f.size(); ++i) {
-        freq[base + model.symbols[i]] = static_cast<uint16_t>(f[i]);
-        start[base + model.symbols[i]] = static_cast<uint16_t>(cumulative);
-        cumulative += f[i];
-      }
-    }
-    out->insert(out->end(), block.bytes().begin(), block.bytes().end());
+    const SymbolPlan& tables = plan();
+    const std::vector<uint32_t>& row = tables.row;
+    const std::vector<uint32_t>& group = tables.group;
+    const std::vector<uint16_t>& freq = tables.freq;
+    const std::vector<uint16_t>& start = tables.start;
+    out->insert(out->end(), tables.block.begin(), tables.block.end());
 
     // rANS, last symbol first, bytes written backwards into one buffer that all states share:
     // each symbol emits at most two. The decoder reads them forwards, each step's bytes where

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <initializer_list>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,19 @@ namespace osteon::detail {
 /// concatenations would inline several calls each (the WebAssembly decoder's size is budgeted).
 std::string message(const char* pattern, std::initializer_list<uint64_t> numbers);
 
+/// A section's tables, planned from the queued symbols' counts: each used context's row
+/// (row[context], or ~0u), the row whose table each row codes with, per (group row, symbol) the
+/// frequency and cumulative start of the rANS coder, the table block's bytes, and the bits the
+/// section will spend on them (table block plus each symbol's log2(4096 / frequency)).
+struct SymbolPlan {
+  std::vector<uint32_t> row;
+  std::vector<uint32_t> group;
+  std::vector<uint16_t> freq;
+  std::vector<uint16_t> start;
+  std::vector<uint8_t> block;
+  double bits = 0;
+};
+
 class SymbolEncoder {
  public:
   /// alphabet: 2..4096 symbols; contexts: 1..4096.
@@ -50,13 +64,20 @@ class SymbolEncoder {
   /// where that codes smaller. O(symbols + used contexts * alphabet), plus a bounded table-merging
   /// search (a few ms on small meshes; at most ~100 ms for thousands of sparse contexts).
   void append_to(std::vector<uint8_t>* out) const;
+  /// The bits append_to will spend on the queued symbols: its table block and their rANS cost,
+  /// not the section's few bytes of counts, final states and raw bits. Plans the tables, which
+  /// append_to then reuses: for choosing between context models without coding each.
+  double coded_bits() const;
 
  private:
+  const SymbolPlan& plan() const;
+
   uint32_t alphabet_;
   uint32_t contexts_;
   std::vector<uint32_t> queued_;  // (context << 12 | symbol) per symbol, in put order
   std::vector<uint8_t> bits_;     // raw bit stream, LSB-first
   uint64_t bit_count_ = 0;
+  mutable std::optional<SymbolPlan> plan_;  // planned by coded_bits() or append_to()
 };
 
 class SymbolDecoder {
