@@ -376,6 +376,16 @@ double merged_bits(const SparseCounts& a, const SparseCounts& b, SparseCounts* o
   return e.bits();
 }
 
+/// estimated_bits() of the sum of two dense rows of `alphabet` counts (`b` may be null).
+double dense_bits(const uint32_t* a, const uint32_t* b, uint32_t alphabet) {
+  SizeEstimate e;
+  for (uint32_t s = 0; s < alphabet; ++s) {
+    const uint32_t c = a[s] + (b != nullptr ? b[s] : 0);
+    if (c > 0) e.add(c);
+  }
+  return e.bits();
+}
+
 /// Which table each used context (row of `counts`, `alphabet` wide) codes with: contexts share a
 /// table where the table bits saved outweigh the coding loss, which matters for small meshes
 /// whose many contexts see a few symbols each. Greedy agglomerative merging on the estimate
@@ -386,6 +396,7 @@ double merged_bits(const SparseCounts& a, const SparseCounts& b, SparseCounts* o
 constexpr size_t kMergeCandidates = 512;
 constexpr uint64_t kMergeBelow = 4096;
 constexpr uint64_t kMergeWork = uint64_t{1} << 21;
+constexpr uint32_t kDenseAlphabet = 8;
 
 std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32_t rows,
                                      uint32_t alphabet) {
@@ -415,12 +426,26 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   }
   if (m < 2) return group;
 
-  std::vector<SparseCounts> cluster(m);
+  // Each cluster's counts: dense rows for small alphabets (the connectivity's five symbols), where
+  // a pass over the alphabet is cheaper than merging (symbol, count) lists; lists otherwise. Both
+  // add the present symbols' counts in symbol order, so the estimates are the same doubles.
+  const bool dense = alphabet <= kDenseAlphabet;
+  std::vector<SparseCounts> cluster(dense ? 0 : m);
+  std::vector<uint32_t> flat(dense ? m * alphabet : 0);
+  auto pair_bits = [&](size_t a, size_t b) {
+    return dense ? dense_bits(&flat[a * alphabet], &flat[b * alphabet], alphabet)
+                 : merged_bits(cluster[a], cluster[b]);
+  };
   std::vector<double> bits(m);
   std::vector<uint32_t> version(m, 0);  // bumped by every merge into the cluster
   std::vector<bool> alive(m, true);
   for (size_t i = 0; i < m; ++i) {
     const uint32_t* row = &counts[size_t{sizes[i].row} * alphabet];
+    if (dense) {
+      std::copy(row, row + alphabet, &flat[i * alphabet]);
+      bits[i] = dense_bits(row, nullptr, alphabet);
+      continue;
+    }
     for (uint32_t s = 0; s < alphabet; ++s) {
       if (row[s] > 0) cluster[i].emplace_back(s, row[s]);
     }
@@ -435,7 +460,7 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   constexpr double kReferenceBits = 3;  // a context naming a table defined before it
   std::priority_queue<Merge> merges;
   auto consider = [&](size_t a, size_t b) {
-    const double gain = bits[a] + bits[b] - merged_bits(cluster[a], cluster[b]) - kReferenceBits;
+    const double gain = bits[a] + bits[b] - pair_bits(a, b) - kReferenceBits;
     if (gain > 0) {
       merges.push(
           Merge{gain, static_cast<uint32_t>(a), static_cast<uint32_t>(b), version[a], version[b]});
@@ -452,12 +477,17 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
     if (!alive[a] || !alive[b] || version[a] != best.version_a || version[b] != best.version_b) {
       continue;
     }
-    SparseCounts both;
-    bits[a] = merged_bits(cluster[a], cluster[b], &both);
-    cluster[a] = std::move(both);
+    if (dense) {
+      for (uint32_t s = 0; s < alphabet; ++s) flat[a * alphabet + s] += flat[b * alphabet + s];
+      bits[a] = dense_bits(&flat[a * alphabet], nullptr, alphabet);
+    } else {
+      SparseCounts both;
+      bits[a] = merged_bits(cluster[a], cluster[b], &both);
+      cluster[a] = std::move(both);
+      cluster[b].clear();
+    }
     ++version[a];
     alive[b] = false;
-    cluster[b].clear();
     for (uint32_t& g : group) {
       if (g == sizes[b].row) g = sizes[a].row;
     }
