@@ -293,6 +293,7 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   for (uint32_t model = 0; model < models; ++model) {
     SymbolContext context(kContextModels[model]);
     SymbolEncoder coder(kSymbolCount, context.contexts());
+    coder.reserve(n);
     for (uint32_t k = 0; k < n; ++k) {
       coder.put(context.get(valences[k]), decoded_symbols[k]);
       context.update(decoded_symbols[k]);

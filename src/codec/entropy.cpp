@@ -675,15 +675,10 @@ SymbolEncoder::SymbolEncoder(uint32_t alphabet, uint32_t contexts)
   assert(contexts >= 1 && contexts <= 4096);
 }
 
-void SymbolEncoder::put(uint32_t context, uint32_t symbol) {
-  assert(context < contexts_ && symbol < alphabet_);
-  assert(queued_.size() < kMaxSymbols);
-  queued_.push_back(context << kProbBits | symbol);
-  plan_.reset();
-}
+static_assert(SymbolEncoder::kContextShift == kProbBits, "queued symbols are context << 12 | symbol");
 
 void SymbolEncoder::put_bits(uint32_t value, int count) {
-  assert(count >= 0 && count <= 32);
+  assert(count >= 0 && count <= 32 && !plan_.has_value());
   if (count == 0) return;
   const uint64_t bits = value & ((uint64_t{1} << count) - 1);
   const uint64_t end = bit_count_ + static_cast<uint64_t>(count);

@@ -52,10 +52,20 @@ class SymbolEncoder {
   /// alphabet: 2..4096 symbols; contexts: 1..4096.
   SymbolEncoder(uint32_t alphabet, uint32_t contexts);
 
-  /// Queues one symbol (< alphabet) coded with context `context` (< contexts).
-  void put(uint32_t context, uint32_t symbol);
-  /// Queues `count` (0..32) raw bits of `value`, stored uncompressed in the bit stream.
+  /// Room for `symbols` more queued symbols.
+  void reserve(size_t symbols) { queued_.reserve(queued_.size() + symbols); }
+  /// Queues one symbol (< alphabet) coded with context `context` (< contexts). Not after
+  /// coded_bits(), whose plan append_to reuses.
+  void put(uint32_t context, uint32_t symbol) {
+    assert(context < contexts_ && symbol < alphabet_);
+    assert(queued_.size() < 0xffffffffu && !plan_.has_value());
+    queued_.push_back(context << kContextShift | symbol);
+  }
+  /// Queues `count` (0..32) raw bits of `value`, stored uncompressed in the bit stream. Not
+  /// after coded_bits() either.
   void put_bits(uint32_t value, int count);
+
+  static constexpr uint32_t kContextShift = 12;  // a queued symbol is context << 12 | symbol
 
   size_t symbol_count() const { return queued_.size(); }
 
