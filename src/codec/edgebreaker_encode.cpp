@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
-#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -285,26 +284,44 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   put_ids(copies);
   for (const auto& g : glue) writer.write_varint(g.second);
 
-  // Each context model the encoder tries is sized by its planned tables (coded_bits), and only
-  // the smallest is coded.
+  // Each context model the encoder tries is sized from its symbols' counts alone, by the tables
+  // the entropy coder would plan for them (plan_symbols); only the smallest is coded, with that
+  // plan.
   uint32_t best_model = 0;
-  std::optional<SymbolEncoder> best_coder;
+  SymbolPlan best_plan;
   const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
+  std::vector<uint32_t> counts;
+  std::vector<uint32_t> order;  // the contexts that occur, by first symbol
   for (uint32_t model = 0; model < models; ++model) {
     SymbolContext context(kContextModels[model]);
-    SymbolEncoder coder(kSymbolCount, context.contexts());
-    coder.reserve(n);
+    counts.assign(size_t{context.contexts()} * kSymbolCount, 0);
+    std::vector<uint8_t> seen(context.contexts(), 0);
+    order.clear();
     for (uint32_t k = 0; k < n; ++k) {
-      coder.put(context.get(valences[k]), decoded_symbols[k]);
+      const uint32_t c = context.get(valences[k]);
+      if (!seen[c]) {
+        seen[c] = 1;
+        order.push_back(c);
+      }
+      ++counts[size_t{c} * kSymbolCount + decoded_symbols[k]];
       context.update(decoded_symbols[k]);
     }
-    if (!best_coder.has_value() || coder.coded_bits() < best_coder->coded_bits()) {
-      best_coder.emplace(std::move(coder));
+    SymbolPlan plan = plan_symbols(counts, order, context.contexts(), kSymbolCount);
+    if (model == 0 || plan.bits < best_plan.bits) {
+      best_plan = std::move(plan);
       best_model = model;
     }
   }
+  SymbolContext context(kContextModels[best_model]);
+  SymbolEncoder coder(kSymbolCount, context.contexts());
+  coder.reserve(n);
+  for (uint32_t k = 0; k < n; ++k) {
+    coder.put(context.get(valences[k]), decoded_symbols[k]);
+    context.update(decoded_symbols[k]);
+  }
+  coder.use_plan(std::move(best_plan));
   std::vector<uint8_t> best;
-  best_coder->append_to(&best);
+  coder.append_to(&best);
   bytes.push_back(static_cast<uint8_t>(best_model));
   bytes.insert(bytes.end(), best.begin(), best.end());
   return out;

@@ -690,6 +690,45 @@ void SymbolEncoder::put_bits(uint32_t value, int count) {
   bit_count_ = end;
 }
 
+namespace {
+
+/// Completes `p` (its row set, `used` rows in use) from `counts`, the used rows' symbol counts:
+/// the tables, the table block and the bits.
+void finish_plan(uint32_t used, uint32_t alphabet, std::vector<uint32_t>* counts_in,
+                 SymbolPlan* p) {
+  std::vector<uint32_t>& counts = *counts_in;
+  BitWriter block;
+  plan_tables(p->row, used, alphabet, &counts, &block, p);
+  p->block = block.bytes();
+  // Each group row now holds its members' counts, all coded with its table.
+  p->bits = 8.0 * p->block.size();
+  for (uint32_t r = 0; r < used; ++r) {
+    if (p->group[r] != r) continue;
+    for (uint32_t s = 0; s < alphabet; ++s) {
+      const size_t i = size_t{r} * alphabet + s;
+      if (counts[i] > 0) p->bits += counts[i] * (kProbBits - std::log2(p->freq[i]));
+    }
+  }
+}
+
+}  // namespace
+
+SymbolPlan plan_symbols(const std::vector<uint32_t>& counts, const std::vector<uint32_t>& order,
+                        uint32_t contexts, uint32_t alphabet) {
+  assert(counts.size() == size_t{contexts} * alphabet);
+  SymbolPlan p;
+  if (order.empty()) return p;
+  p.row.assign(contexts, kUnusedRow);
+  const uint32_t used = static_cast<uint32_t>(order.size());
+  std::vector<uint32_t> used_counts(size_t{used} * alphabet);
+  for (uint32_t r = 0; r < used; ++r) {
+    p.row[order[r]] = r;
+    std::copy_n(&counts[size_t{order[r]} * alphabet], alphabet, &used_counts[size_t{r} * alphabet]);
+  }
+  finish_plan(used, alphabet, &used_counts, &p);
+  return p;
+}
+
 const SymbolPlan& SymbolEncoder::plan() const {
   if (plan_.has_value()) return *plan_;
   SymbolPlan& p = plan_.emplace();
@@ -702,22 +741,11 @@ const SymbolPlan& SymbolEncoder::plan() const {
   }
   std::vector<uint32_t> counts(size_t{used} * alphabet_, 0);
   for (uint32_t q : queued_) ++counts[size_t{p.row[q >> kProbBits]} * alphabet_ + (q & (kProbScale - 1))];
-  BitWriter block;
-  plan_tables(p.row, used, alphabet_, &counts, &block, &p);
-  p.block = block.bytes();
-  // Each group row now holds its members' counts, all coded with its table.
-  p.bits = 8.0 * p.block.size();
-  for (uint32_t r = 0; r < used; ++r) {
-    if (p.group[r] != r) continue;
-    for (uint32_t s = 0; s < alphabet_; ++s) {
-      const size_t i = size_t{r} * alphabet_ + s;
-      if (counts[i] > 0) p.bits += counts[i] * (kProbBits - std::log2(p.freq[i]));
-    }
-  }
+  finish_plan(used, alphabet_, &counts, &p);
   return p;
 }
 
-double SymbolEncoder::coded_bits() const { return plan().bits; }
+void SymbolEncoder::use_plan(SymbolPlan plan) { plan_ = std::move(plan); }
 
 void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
   const size_t n = queued_.size();

@@ -34,10 +34,11 @@ namespace osteon::detail {
 /// concatenations would inline several calls each (the WebAssembly decoder's size is budgeted).
 std::string message(const char* pattern, std::initializer_list<uint64_t> numbers);
 
-/// A section's tables, planned from the queued symbols' counts: each used context's row
-/// (row[context], or ~0u), the row whose table each row codes with, per (group row, symbol) the
-/// frequency and cumulative start of the rANS coder, the table block's bytes, and the bits the
-/// section will spend on them (table block plus each symbol's log2(4096 / frequency)).
+/// A section's tables, planned from its symbols' counts: each used context's row (row[context],
+/// or ~0u), the row whose table each row codes with, per (group row, symbol) the frequency and
+/// cumulative start of the rANS coder, the table block's bytes, and the bits the section will
+/// spend on them (table block plus each symbol's log2(4096 / frequency); not its few bytes of
+/// counts and final states, nor its raw bits).
 struct SymbolPlan {
   std::vector<uint32_t> row;
   std::vector<uint32_t> group;
@@ -47,6 +48,12 @@ struct SymbolPlan {
   double bits = 0;
 };
 
+/// The plan SymbolEncoder would make for symbols with these counts (`counts[context * alphabet +
+/// symbol]`, `contexts` rows), `order` listing the contexts that occur in the order of their first
+/// symbol: for sizing a stream from its counts alone, without queueing its symbols.
+SymbolPlan plan_symbols(const std::vector<uint32_t>& counts, const std::vector<uint32_t>& order,
+                        uint32_t contexts, uint32_t alphabet);
+
 class SymbolEncoder {
  public:
   /// alphabet: 2..4096 symbols; contexts: 1..4096.
@@ -55,14 +62,14 @@ class SymbolEncoder {
   /// Room for `symbols` more queued symbols.
   void reserve(size_t symbols) { queued_.reserve(queued_.size() + symbols); }
   /// Queues one symbol (< alphabet) coded with context `context` (< contexts). Not after
-  /// coded_bits(), whose plan append_to reuses.
+  /// use_plan(), whose plan is for the symbols queued before it.
   void put(uint32_t context, uint32_t symbol) {
     assert(context < contexts_ && symbol < alphabet_);
     assert(queued_.size() < 0xffffffffu && !plan_.has_value());
     queued_.push_back(context << kContextShift | symbol);
   }
   /// Queues `count` (0..32) raw bits of `value`, stored uncompressed in the bit stream. Not
-  /// after coded_bits() either.
+  /// after use_plan() either.
   void put_bits(uint32_t value, int count);
 
   static constexpr uint32_t kContextShift = 12;  // a queued symbol is context << 12 | symbol
@@ -74,10 +81,9 @@ class SymbolEncoder {
   /// where that codes smaller. O(symbols + used contexts * alphabet), plus a bounded table-merging
   /// search (a few ms on small meshes; at most ~100 ms for thousands of sparse contexts).
   void append_to(std::vector<uint8_t>* out) const;
-  /// The bits append_to will spend on the queued symbols: its table block and their rANS cost,
-  /// not the section's few bytes of counts, final states and raw bits. Plans the tables, which
-  /// append_to then reuses: for choosing between context models without coding each.
-  double coded_bits() const;
+  /// Codes the queued symbols with `plan`, which plan_symbols() made from their counts (the
+  /// plan append_to would make itself), instead of planning again.
+  void use_plan(SymbolPlan plan);
 
  private:
   const SymbolPlan& plan() const;
@@ -87,7 +93,7 @@ class SymbolEncoder {
   std::vector<uint32_t> queued_;  // (context << 12 | symbol) per symbol, in put order
   std::vector<uint8_t> bits_;     // raw bit stream, LSB-first
   uint64_t bit_count_ = 0;
-  mutable std::optional<SymbolPlan> plan_;  // planned by coded_bits() or append_to()
+  mutable std::optional<SymbolPlan> plan_;  // from use_plan(), or planned by append_to()
 };
 
 class SymbolDecoder {
