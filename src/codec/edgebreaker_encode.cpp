@@ -292,10 +292,11 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
   std::vector<uint32_t> counts;
   std::vector<uint32_t> order;  // the contexts that occur, by first symbol
+  std::vector<uint8_t> seen;
   for (uint32_t model = 0; model < models; ++model) {
     SymbolContext context(kContextModels[model]);
     counts.assign(size_t{context.contexts()} * kSymbolCount, 0);
-    std::vector<uint8_t> seen(context.contexts(), 0);
+    seen.assign(context.contexts(), 0);
     order.clear();
     for (uint32_t k = 0; k < n; ++k) {
       const uint32_t c = context.get(valences[k]);

@@ -343,7 +343,8 @@ struct SizeEstimate {
   }
   double bits() const {
     const double t = static_cast<double>(total);
-    const double t_log_t = total < LogTables::kSize ? logs.count_log_count[total] : t * std::log2(t);
+    const double t_log_t =
+        total < LogTables::kSize ? logs.count_log_count[total] : t * std::log2(t);
     return t_log_t - count_log_count + table_bits;
   }
 };
@@ -500,14 +501,16 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
 
 constexpr uint32_t kUnusedRow = 0xffffffffu;
 
-/// Groups the `used` rows of `counts` (`alphabet` wide; row[c]: context c's row, or kUnusedRow),
-/// adds each row's counts into its group's row, and writes the table block (docs/FORMAT.md,
-/// "Symbol section") to `block`: tables in context order, each defined where its first context
-/// occurs.
-void plan_tables(const std::vector<uint32_t>& row, uint32_t used, uint32_t alphabet,
-                 std::vector<uint32_t>* counts_in, BitWriter* block, SymbolPlan* plan) {
+/// Completes `t`, whose row[] numbers the `used` rows of `counts` (`alphabet` wide; kUnusedRow
+/// for a context that does not occur): groups the rows, adds each row's counts into its group's
+/// row, and writes the table block (docs/FORMAT.md, "Symbol section"): tables in context order,
+/// each defined where its first context occurs.
+void plan_tables(uint32_t used, uint32_t alphabet, std::vector<uint32_t>* counts_in,
+                 SymbolPlan* plan) {
   std::vector<uint32_t>& counts = *counts_in;
   SymbolPlan& t = *plan;
+  const std::vector<uint32_t>& row = t.row;
+  BitWriter block;
   // Contexts that share a table get the sum of their counts; group[row] is the row holding it.
   t.group = group_contexts(counts, used, alphabet);
   for (uint32_t r = 0; r < used; ++r) {
@@ -520,22 +523,22 @@ void plan_tables(const std::vector<uint32_t>& row, uint32_t used, uint32_t alpha
   t.start.assign(counts.size(), 0);
   std::vector<uint32_t> table_index(used, kUnusedRow);  // per group row, in definition order
   uint32_t tables = 0;
-  block->gamma(used);
+  block.gamma(used);
   uint32_t previous = ~0u;
   for (uint32_t c = 0; c < row.size(); ++c) {
     if (row[c] == kUnusedRow) continue;
-    block->gamma(c - previous);
+    block.gamma(c - previous);
     previous = c;
     const uint32_t g = t.group[row[c]];
     if (table_index[g] != kUnusedRow) {  // a table defined for an earlier context
-      block->gamma(table_index[g] + 2);
+      block.gamma(table_index[g] + 2);
       continue;
     }
-    block->gamma(1);  // a new table follows
+    block.gamma(1);  // a new table follows
     table_index[g] = tables++;
     const size_t base = size_t{g} * alphabet;
     const auto [model, code] = choose_model(&counts[base], alphabet);
-    write_model(block, model, code);
+    write_model(&block, model, code);
     const std::vector<uint32_t> f = normalize(model.weights);
     uint32_t cumulative = 0;
     for (size_t i = 0; i < f.size(); ++i) {
@@ -544,6 +547,7 @@ void plan_tables(const std::vector<uint32_t>& row, uint32_t used, uint32_t alpha
       cumulative += f[i];
     }
   }
+  t.block = block.bytes();
 }
 
 /// Messages for one section: "bone.osteon: connectivity: what (byte N)".
@@ -675,7 +679,8 @@ SymbolEncoder::SymbolEncoder(uint32_t alphabet, uint32_t contexts)
   assert(contexts >= 1 && contexts <= 4096);
 }
 
-static_assert(SymbolEncoder::kContextShift == kProbBits, "queued symbols are context << 12 | symbol");
+static_assert(SymbolEncoder::kContextShift == kProbBits,
+              "queued symbols are context << 12 | symbol");
 
 void SymbolEncoder::put_bits(uint32_t value, int count) {
   assert(count >= 0 && count <= 32 && !plan_.has_value());
@@ -690,29 +695,6 @@ void SymbolEncoder::put_bits(uint32_t value, int count) {
   bit_count_ = end;
 }
 
-namespace {
-
-/// Completes `p` (its row set, `used` rows in use) from `counts`, the used rows' symbol counts:
-/// the tables, the table block and the bits.
-void finish_plan(uint32_t used, uint32_t alphabet, std::vector<uint32_t>* counts_in,
-                 SymbolPlan* p) {
-  std::vector<uint32_t>& counts = *counts_in;
-  BitWriter block;
-  plan_tables(p->row, used, alphabet, &counts, &block, p);
-  p->block = block.bytes();
-  // Each group row now holds its members' counts, all coded with its table.
-  p->bits = 8.0 * p->block.size();
-  for (uint32_t r = 0; r < used; ++r) {
-    if (p->group[r] != r) continue;
-    for (uint32_t s = 0; s < alphabet; ++s) {
-      const size_t i = size_t{r} * alphabet + s;
-      if (counts[i] > 0) p->bits += counts[i] * (kProbBits - std::log2(p->freq[i]));
-    }
-  }
-}
-
-}  // namespace
-
 SymbolPlan plan_symbols(const std::vector<uint32_t>& counts, const std::vector<uint32_t>& order,
                         uint32_t contexts, uint32_t alphabet) {
   assert(counts.size() == size_t{contexts} * alphabet);
@@ -725,14 +707,21 @@ SymbolPlan plan_symbols(const std::vector<uint32_t>& counts, const std::vector<u
     p.row[order[r]] = r;
     std::copy_n(&counts[size_t{order[r]} * alphabet], alphabet, &used_counts[size_t{r} * alphabet]);
   }
-  finish_plan(used, alphabet, &used_counts, &p);
+  plan_tables(used, alphabet, &used_counts, &p);
+  // Each group row now holds its members' counts, all coded with its table.
+  p.bits = 8.0 * p.block.size();
+  for (uint32_t r = 0; r < used; ++r) {
+    if (p.group[r] != r) continue;
+    for (uint32_t s = 0; s < alphabet; ++s) {
+      const size_t i = size_t{r} * alphabet + s;
+      if (used_counts[i] > 0) p.bits += used_counts[i] * (kProbBits - std::log2(p.freq[i]));
+    }
+  }
   return p;
 }
 
-const SymbolPlan& SymbolEncoder::plan() const {
-  if (plan_.has_value()) return *plan_;
-  SymbolPlan& p = plan_.emplace();
-  if (queued_.empty()) return p;
+SymbolPlan SymbolEncoder::plan() const {
+  SymbolPlan p;
   // Count the symbols of each context that occurs; p.row[c] indexes its counts.
   p.row.assign(contexts_, kUnusedRow);
   uint32_t used = 0;
@@ -740,12 +729,15 @@ const SymbolPlan& SymbolEncoder::plan() const {
     if (p.row[q >> kProbBits] == kUnusedRow) p.row[q >> kProbBits] = used++;
   }
   std::vector<uint32_t> counts(size_t{used} * alphabet_, 0);
-  for (uint32_t q : queued_) ++counts[size_t{p.row[q >> kProbBits]} * alphabet_ + (q & (kProbScale - 1))];
-  finish_plan(used, alphabet_, &counts, &p);
+  for (uint32_t q : queued_)
+    ++counts[size_t{p.row[q >> kProbBits]} * alphabet_ + (q & (kProbScale - 1))];
+  plan_tables(used, alphabet_, &counts, &p);
   return p;
 }
 
-void SymbolEncoder::use_plan(SymbolPlan plan) { plan_ = std::move(plan); }
+void SymbolEncoder::use_plan(SymbolPlan plan) {
+  plan_ = std::move(plan);
+}
 
 void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
   const size_t n = queued_.size();
@@ -753,7 +745,8 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
   writer.write_varint(n);
   writer.write_varint(bit_count_);
   if (n > 0) {
-    const SymbolPlan& tables = plan();
+    SymbolPlan planned;
+    const SymbolPlan& tables = plan_.has_value() ? *plan_ : (planned = plan());
     const std::vector<uint32_t>& row = tables.row;
     const std::vector<uint32_t>& group = tables.group;
     const std::vector<uint16_t>& freq = tables.freq;

@@ -36,9 +36,9 @@ std::string message(const char* pattern, std::initializer_list<uint64_t> numbers
 
 /// A section's tables, planned from its symbols' counts: each used context's row (row[context],
 /// or ~0u), the row whose table each row codes with, per (group row, symbol) the frequency and
-/// cumulative start of the rANS coder, the table block's bytes, and the bits the section will
-/// spend on them (table block plus each symbol's log2(4096 / frequency); not its few bytes of
-/// counts and final states, nor its raw bits).
+/// cumulative start of the rANS coder, and the table block's bytes. From plan_symbols() also the
+/// bits the section will spend on them (table block plus each symbol's log2(4096 / frequency); not
+/// its few bytes of counts and final states, nor its raw bits).
 struct SymbolPlan {
   std::vector<uint32_t> row;
   std::vector<uint32_t> group;
@@ -65,7 +65,7 @@ class SymbolEncoder {
   /// use_plan(), whose plan is for the symbols queued before it.
   void put(uint32_t context, uint32_t symbol) {
     assert(context < contexts_ && symbol < alphabet_);
-    assert(queued_.size() < 0xffffffffu && !plan_.has_value());
+    assert(queued_.size() < UINT32_MAX && !plan_.has_value());
     queued_.push_back(context << kContextShift | symbol);
   }
   /// Queues `count` (0..32) raw bits of `value`, stored uncompressed in the bit stream. Not
@@ -86,14 +86,14 @@ class SymbolEncoder {
   void use_plan(SymbolPlan plan);
 
  private:
-  const SymbolPlan& plan() const;
+  SymbolPlan plan() const;  // the plan of the queued symbols
 
   uint32_t alphabet_;
   uint32_t contexts_;
   std::vector<uint32_t> queued_;  // (context << 12 | symbol) per symbol, in put order
   std::vector<uint8_t> bits_;     // raw bit stream, LSB-first
   uint64_t bit_count_ = 0;
-  mutable std::optional<SymbolPlan> plan_;  // from use_plan(), or planned by append_to()
+  std::optional<SymbolPlan> plan_;  // from use_plan(); otherwise append_to plans
 };
 
 class SymbolDecoder {
