@@ -69,32 +69,33 @@ class SubtreeSizes {
   std::unordered_map<uint32_t, uint32_t> memo_;
 };
 
+// A triangle as the build sorts it: its centroid, its box and its id, side by side, so that each
+// node's pass over its range reads memory in order.
+struct BuildItem {
+  float centroid[3];
+  float lo[3];
+  float hi[3];
+  uint32_t id;
+};
+
 struct Builder {
-  const Mesh& mesh;
-  std::vector<std::array<float, 3>> centroids;  // by triangle id
-  std::vector<uint32_t> order;                  // triangle ids, leaf order once built
+  std::vector<BuildItem> items;  // leaf order once built
   std::vector<Node> nodes;
   SubtreeSizes sizes;
 
-  // Fills nodes[node] over order[begin, end); its descendants go from nodes[next] on.
+  // Fills nodes[node] over items[begin, end); its descendants go from nodes[next] on.
   void build(uint32_t node, uint32_t begin, uint32_t end, uint32_t next) {
     float lo[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
                    std::numeric_limits<float>::max()};
     float hi[3] = {-lo[0], -lo[0], -lo[0]};
     float clo[3] = {lo[0], lo[1], lo[2]}, chi[3] = {hi[0], hi[1], hi[2]};
     for (uint32_t i = begin; i < end; ++i) {
-      uint32_t t = order[i];
-      for (int k = 0; k < 3; ++k) {
-        const Vec3& v = mesh.positions[mesh.indices[3 * size_t(t) + k]];
-        const float xyz[3] = {v.x, v.y, v.z};
-        for (int axis = 0; axis < 3; ++axis) {
-          lo[axis] = std::min(lo[axis], xyz[axis]);
-          hi[axis] = std::max(hi[axis], xyz[axis]);
-        }
-      }
+      const BuildItem& item = items[i];
       for (int axis = 0; axis < 3; ++axis) {
-        clo[axis] = std::min(clo[axis], centroids[t][axis]);
-        chi[axis] = std::max(chi[axis], centroids[t][axis]);
+        lo[axis] = std::min(lo[axis], item.lo[axis]);
+        hi[axis] = std::max(hi[axis], item.hi[axis]);
+        clo[axis] = std::min(clo[axis], item.centroid[axis]);
+        chi[axis] = std::max(chi[axis], item.centroid[axis]);
       }
     }
     Node& out = nodes[node];
@@ -112,10 +113,10 @@ struct Builder {
     }
     uint32_t mid = begin + n / 2;
     // Ties broken by id: the tree depends on the mesh alone, not on the sort's internals.
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                     [&](uint32_t x, uint32_t y) {
-                       float cx = centroids[x][axis], cy = centroids[y][axis];
-                       return cx < cy || (cx == cy && x < y);
+    std::nth_element(items.begin() + begin, items.begin() + mid, items.begin() + end,
+                     [axis](const BuildItem& x, const BuildItem& y) {
+                       float cx = x.centroid[axis], cy = y.centroid[axis];
+                       return cx < cy || (cx == cy && x.id < y.id);
                      });
     out.first = next;
     out.count = 0;
@@ -192,22 +193,32 @@ DistanceQuery::~DistanceQuery() = default;
 Result<DistanceQuery> DistanceQuery::build(const Mesh& mesh) {
   OSTEON_RETURN_IF_ERROR(detail::check_surface(mesh));
   uint32_t count = static_cast<uint32_t>(mesh.triangle_count());
-  Builder builder{mesh, {}, {}, {}, SubtreeSizes(count)};
-  builder.centroids.resize(count);
-  builder.order.resize(count);
+  Builder builder{{}, {}, SubtreeSizes(count)};
+  builder.items.resize(count);
   for (uint32_t t = 0; t < count; ++t) {
     const Vec3& a = mesh.positions[mesh.indices[3 * size_t(t)]];
     const Vec3& b = mesh.positions[mesh.indices[3 * size_t(t) + 1]];
     const Vec3& c = mesh.positions[mesh.indices[3 * size_t(t) + 2]];
-    builder.centroids[t] = {(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3, (a.z + b.z + c.z) / 3};
-    builder.order[t] = t;
+    BuildItem& item = builder.items[t];
+    item.centroid[0] = (a.x + b.x + c.x) / 3;
+    item.centroid[1] = (a.y + b.y + c.y) / 3;
+    item.centroid[2] = (a.z + b.z + c.z) / 3;
+    item.lo[0] = std::min({a.x, b.x, c.x});
+    item.lo[1] = std::min({a.y, b.y, c.y});
+    item.lo[2] = std::min({a.z, b.z, c.z});
+    item.hi[0] = std::max({a.x, b.x, c.x});
+    item.hi[1] = std::max({a.y, b.y, c.y});
+    item.hi[2] = std::max({a.z, b.z, c.z});
+    item.id = t;
   }
   builder.nodes.resize(builder.sizes(count));
   builder.build(0, 0, count, 1);
 
   auto impl = std::make_unique<Impl>();
   impl->nodes = std::move(builder.nodes);
-  impl->ids = std::move(builder.order);
+  impl->ids.resize(count);
+  for (uint32_t slot = 0; slot < count; ++slot) impl->ids[slot] = builder.items[slot].id;
+  builder.items = {};
   impl->triangles.resize(count);
   impl->slots.resize(count);
   for (uint32_t slot = 0; slot < count; ++slot) {

@@ -99,6 +99,9 @@ Status check_options(const HausdorffOptions& options) {
     return error(ErrorCode::kInvalidArgument, "",
                  "samples_per_face must be > 0 (and below 1e9) when samples is 0");
   }
+  if (!(options.known_max >= 0 && options.known_max < 1e300)) {
+    return error(ErrorCode::kInvalidArgument, "", "known_max must be a finite distance >= 0");
+  }
   if (options.threads < 0) {
     return error(ErrorCode::kInvalidArgument, "", "threads must be >= 0 (0: every core)");
   }
@@ -259,11 +262,44 @@ struct Progress {
   uint64_t total = 0;   // samples of every direction
 };
 
-// Measures every sample of `plan` against `target`.
+// Measures one sample `g` of `plan` into `r`. With `max_only`, only as far as it could raise
+// the larger of r.max and `floor` (a distance already reached): a sample nearer than that records
+// some distance no larger than it, never more, so the largest recorded is still the exact largest
+// wherever it exceeds `floor`.
+void measure_sample(const SamplePlan& plan, const DistanceQuery& target, uint64_t g,
+                    double zero_below, bool max_only, double floor, uint32_t* hint,
+                    BlockResult* r) {
+  Vec3d p = sample_point(plan, g);
+  ClosestPoint c = max_only ? target.closest(p, *hint, std::max({r->max, floor, zero_below}))
+                            : target.closest(p, *hint);
+  *hint = c.triangle;
+  double d = c.distance <= zero_below ? 0.0 : c.distance;
+  r->sum += d;
+  r->sum2 += d * d;
+  if (d > r->max) {
+    r->max = d;
+    r->max_at = p;
+    r->max_closest = c.point;
+  }
+}
+
+// Measures every sample of `plan` against `target`. With `max_only`, a distance `known` from
+// elsewhere and then every kSeedStride-th sample, measured first in order, set the floor below
+// which the blocks need not measure exactly: without it each block would search the whole
+// hierarchy for its first samples, until its own largest distance grew.
 OneSidedDistance measure(const SamplePlan& plan, const DistanceQuery& target, double zero_below,
-                         bool max_only, const Progress& progress) {
+                         bool max_only, double known, const Progress& progress) {
+  constexpr uint64_t kSeedStride = 61;
   uint64_t count = plan.total();
   uint64_t blocks = (count + kBlock - 1) / kBlock;
+  BlockResult seed;
+  if (max_only) {
+    uint32_t hint = ClosestPoint::kNoTriangle;
+    for (uint64_t g = 0; g < count; g += kSeedStride) {
+      measure_sample(plan, target, g, zero_below, true, known, &hint, &seed);
+    }
+  }
+  const double floor = max_only ? std::max(known, seed.max) : 0.0;
   std::vector<BlockResult> results(blocks);
   for (uint64_t slice = 0; slice < blocks; slice += kBlocksPerSlice) {
     uint64_t slice_end = std::min(blocks, slice + kBlocksPerSlice);
@@ -274,20 +310,7 @@ OneSidedDistance measure(const SamplePlan& plan, const DistanceQuery& target, do
                           uint32_t hint = ClosestPoint::kNoTriangle;
                           uint64_t end = std::min(count, (block + 1) * kBlock);
                           for (uint64_t g = block * kBlock; g < end; ++g) {
-                            Vec3d p = sample_point(plan, g);
-                            // A sample within the largest distance so far cannot change it.
-                            ClosestPoint c =
-                                max_only ? target.closest(p, hint, std::max(r.max, zero_below))
-                                         : target.closest(p, hint);
-                            hint = c.triangle;
-                            double d = c.distance <= zero_below ? 0.0 : c.distance;
-                            r.sum += d;
-                            r.sum2 += d * d;
-                            if (d > r.max) {
-                              r.max = d;
-                              r.max_at = p;
-                              r.max_closest = c.point;
-                            }
+                            measure_sample(plan, target, g, zero_below, max_only, floor, &hint, &r);
                           }
                         }
                       });
@@ -297,7 +320,9 @@ OneSidedDistance measure(const SamplePlan& plan, const DistanceQuery& target, do
   }
   OneSidedDistance out;
   double sum = 0, sum2 = 0;
-  out.max = -1;
+  out.max = seed.max;  // -1 unless seeded; a block's sample wins only where it is larger
+  out.max_at = seed.max_at;
+  out.max_closest = seed.max_closest;
   for (const BlockResult& r : results) {
     sum += r.sum;
     sum2 += r.sum2;
@@ -343,7 +368,8 @@ Result<OneSidedDistance> one_sided_distance(const Mesh& sampled, const DistanceQ
     SamplePlan plan = make_plan(sampled, options);
     double largest = std::max(plan.largest_coordinate, largest_coordinate_of(target.bounds()));
     Progress progress{&options.progress, 0, plan.total()};
-    return measure(plan, target, zero_below(largest), options.max_only, progress);
+    return measure(plan, target, zero_below(largest), options.max_only, options.known_max,
+                   progress);
   });
 }
 
@@ -359,9 +385,10 @@ Result<HausdorffReport> hausdorff(const Mesh& a, const Mesh& b, const HausdorffO
     double floor = zero_below(std::max(on_a.largest_coordinate, on_b.largest_coordinate));
     uint64_t total = on_a.total() + on_b.total();
     HausdorffReport report;
-    report.forward = measure(on_a, to_b, floor, options.max_only, {&options.progress, 0, total});
-    report.backward =
-        measure(on_b, to_a, floor, options.max_only, {&options.progress, on_a.total(), total});
+    report.forward = measure(on_a, to_b, floor, options.max_only, options.known_max,
+                             {&options.progress, 0, total});
+    report.backward = measure(on_b, to_a, floor, options.max_only, options.known_max,
+                              {&options.progress, on_a.total(), total});
 
     const OneSidedDistance& f = report.forward;
     const OneSidedDistance& r = report.backward;

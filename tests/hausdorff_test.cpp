@@ -245,6 +245,39 @@ TEST(Hausdorff, MaxOnlyGivesTheSameMaxBitForBit) {
   }
 }
 
+TEST(Hausdorff, KnownMaxKeepsTheLargerExact) {
+  const auto [a, b] = phantom_and_noisy_copy(3, 9);
+  HausdorffOptions options;
+  options.samples = 60000;
+  options.max_only = true;
+  Result<DistanceQuery> to_b = DistanceQuery::build(b);
+  ASSERT_TRUE(to_b.ok()) << to_b.status().message();
+  auto one_sided = [&] {
+    Result<OneSidedDistance> r = one_sided_distance(a, to_b.value(), options);
+    EXPECT_TRUE(r.ok()) << r.status().message();
+    return r.ok() ? r.value() : OneSidedDistance{};
+  };
+  const OneSidedDistance exact = one_sided();
+  ASSERT_GT(exact.max, 0.0);
+  // Below the largest distance: the same largest, bit for bit.
+  options.known_max = 0.5 * exact.max;
+  const OneSidedDistance below = one_sided();
+  EXPECT_EQ(below.max, exact.max);
+  EXPECT_EQ(below.max_at, exact.max_at);
+  // Above it: nothing is wanted, and nothing larger than it is reported.
+  options.known_max = 2 * exact.max;
+  const OneSidedDistance above = one_sided();
+  EXPECT_LE(above.max, options.known_max);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double infinity = std::numeric_limits<double>::infinity();
+  for (double bad : {-1.0, nan, infinity}) {
+    options.known_max = bad;
+    Result<OneSidedDistance> refused = one_sided_distance(a, to_b.value(), options);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.status().message().find("known_max"), std::string::npos);
+  }
+}
+
 // ---- analytic cases --------------------------------------------------------------------------
 
 TEST(Hausdorff, UnitSphereAgainstSphereOfRadius101) {

@@ -116,10 +116,14 @@ struct HausdorffOptions {
   bool sample_faces = true;
   EdgeSampling edge_sampling = EdgeSampling::kEvenlySpaced;
   /// Only the largest distance is wanted: a sample is measured only as far as it could raise the
-  /// largest so far (DistanceQuery::closest with `enough`). max, max_at and max_closest are the
-  /// same as without it, bit for bit; mean and rms are left 0. Several times faster where the
-  /// surfaces are close.
+  /// largest so far (DistanceQuery::closest with `enough`). max is the same as without it, bit
+  /// for bit, and max_at and max_closest are a sample at that distance and its closest point;
+  /// mean and rms are left 0. Several times faster where the surfaces are close.
   bool max_only = false;
+  /// With max_only: a distance already known from elsewhere (the other direction, say), below
+  /// which nothing is wanted. Samples are measured only as far as they could exceed it, so max is
+  /// exact where it exceeds known_max and otherwise some distance no larger than it.
+  double known_max = 0;
   /// Worker threads; 0 (or more than the cores): every core.
   int threads = 0;
   /// Called on the calling thread after each slice of about 260k samples with the samples done

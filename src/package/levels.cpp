@@ -168,6 +168,7 @@ Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels)
     OSTEON_ASSIGN_OR_RETURN(OneSidedDistance forward,
                             one_sided_distance(level.mesh, to_full, level_samples));
     OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_level, DistanceQuery::build(level.mesh));
+    full_vertices.known_max = forward.max;  // only the larger of the two is kept
     OSTEON_ASSIGN_OR_RETURN(OneSidedDistance backward,
                             one_sided_distance(full, to_level, full_vertices));
     level.distance = std::max(forward.max, backward.max);
