@@ -17,6 +17,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include <tbb/task_group.h>
 #include <zlib.h>
 
 #include "core/huge_pages.hpp"
@@ -244,15 +245,18 @@ class Decoder {
   }
 
   // Reads the stream slab by slab from the first voxel, calling slab(bytes, first, count) until
-  // the volume is read or `stop_` is set.
+  // the volume is read or `stop_` is set. The next slab is read (and inflated) as a task beside
+  // the call on the current one, into a second buffer: on a gzip volume the inflate and the
+  // conversion overlap instead of taking turns.
   template <class F>
   Status each_slab(F&& slab) {
     stop_ = false;
-    for (uint64_t done = 0; done < voxel_count_ && !stop_;) {
+    ahead_.resize(slab_.size());
+    auto read_from = [&](uint64_t done, std::vector<uint8_t>& into) -> Status {
       const uint64_t count = std::min(slab_voxels_, voxel_count_ - done);
       const size_t want = static_cast<size_t>(count * stride_);
       size_t got = 0;
-      OSTEON_RETURN_IF_ERROR(stream_.read(slab_.data(), want, &got));
+      OSTEON_RETURN_IF_ERROR(stream_.read(into.data(), want, &got));
       if (got < want) {
         return error(ErrorCode::kInvalidData, source_,
                      "the voxels end after " + std::to_string(done * stride_ + got) + " of " +
@@ -260,8 +264,21 @@ class Decoder {
                          " bytes: the file is truncated or its dimensions are wrong",
                      layout_.size_field);
       }
-      OSTEON_RETURN_IF_ERROR(slab(slab_.data(), done, count));
-      done += count;
+      return {};
+    };
+    if (voxel_count_ == 0) return {};
+    Status read = read_from(0, slab_);
+    for (uint64_t done = 0; done < voxel_count_ && !stop_;) {
+      OSTEON_RETURN_IF_ERROR(read);
+      const uint64_t count = std::min(slab_voxels_, voxel_count_ - done);
+      const uint64_t next = done + count;
+      tbb::task_group reading;
+      if (next < voxel_count_) reading.run([&] { read = read_from(next, ahead_); });
+      const Status converted = slab(slab_.data(), done, count);
+      reading.wait();
+      OSTEON_RETURN_IF_ERROR(converted);
+      slab_.swap(ahead_);
+      done = next;
     }
     return {};
   }
@@ -580,6 +597,7 @@ class Decoder {
   uint64_t stride_ = 1;  // file bytes a voxel
   uint64_t slab_voxels_ = 1;
   std::vector<uint8_t> slab_;
+  std::vector<uint8_t> ahead_;  // the next slab, read while slab_ is converted
   bool swap_ = false;
   bool reserve_all_ = false;
   bool stop_ = false;
