@@ -168,6 +168,43 @@ bool measure(const Dataset& set, const std::string& package, Distance* out, std:
   return true;
 }
 
+/// measure() in a child process, as every pack is: TBB's thread pool does not survive fork(), so
+/// once this process had run its own parallel work a later pack's child would run on one thread.
+bool measure_in_child(const Dataset& set, const std::string& package, Distance* out,
+                      std::string* failure, int level = -1,
+                      std::map<std::string, double>* part_max = nullptr,
+                      double samples_per_face = 10) {
+  const std::string text = osteon_bench::run_in_child(
+      [&] {
+        Distance d;
+        std::string why;
+        std::map<std::string, double> maxima;
+        nlohmann::json j;
+        j["ok"] = measure(set, package, &d, &why, level, &maxima, samples_per_face);
+        j["failure"] = why;
+        j["max"] = d.max;
+        j["mean"] = d.mean;
+        j["parts"] = d.parts;
+        j["part_max"] = maxima;
+        return j.dump();
+      },
+      nullptr);
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.contains("ok")) {
+    *failure = "the measuring child failed";
+    return false;
+  }
+  if (!j["ok"].get<bool>()) {
+    *failure = j["failure"].get<std::string>();
+    return false;
+  }
+  out->max = j["max"];
+  out->mean = j["mean"];
+  out->parts = j["parts"];
+  if (part_max != nullptr) *part_max = j["part_max"].get<std::map<std::string, double>>();
+  return true;
+}
+
 /// Packs `set` `runs` times in children; the median run by time, the largest peak, and the
 /// package left in options.output.
 bool pack_median(const Dataset& set, const osteon::PackOptions& options, int runs, Run* median) {
@@ -218,15 +255,22 @@ std::map<std::string, double> recorded_coarsest(const std::string& dir) {
 }
 
 /// The levels-of-detail table: each skeleton at full resolution alone and with levels.
+/// The levels table's two targets, judged separately.
+struct LevelTargets {
+  bool bytes = true;           // levels add at most 15% on every skeleton
+  bool pack_measured = false;  // the dense skeleton was in the table
+  bool pack = false;           // and packed with levels in under 60 s, peak under 4 GB
+};
+
 bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& scratch,
-                  std::string* table_out, bool* met) {
+                  std::string* table_out, LevelTargets* met) {
   std::ostringstream table;
   table << "| skeleton | triangles | full resolution only | with levels | levels add | whole "
            "skeleton drawn after | coarser levels | pack time, full / with levels (levels "
            "stage) | peak memory, full / with levels | coarsest level: measured / recorded "
            "error, median (max) |\n"
            "|---|---:|---:|---:|---:|---:|---:|---|---|---|\n";
-  *met = true;
+  *met = LevelTargets{};
   for (const Dataset& set : sets) {
     osteon::PackOptions options;
     options.output = (scratch / "lod").string();
@@ -246,7 +290,8 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
     std::map<std::string, double> measured;
     Distance distance;
     std::string failure;
-    if (!measure(set, options.output, &distance, &failure, 0, &measured, set.dense ? 1 : 10)) {
+    if (!measure_in_child(set, options.output, &distance, &failure, 0, &measured,
+                          set.dense ? 1 : 10)) {
       std::fprintf(stderr, "pack_bench: %s: %s\n", set.label.c_str(), failure.c_str());
       return false;
     }
@@ -259,8 +304,11 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
     const osteon::PackReport& a = full.report;
     const osteon::PackReport& b = lod.report;
     const double overhead = 100.0 * (double(b.output_bytes) / double(a.output_bytes) - 1);
-    *met = *met && overhead <= 15;
-    if (set.dense) *met = *met && b.timings.total_ms < 60000 && lod.peak_mib < 4096;
+    met->bytes = met->bytes && overhead <= 15;
+    if (set.dense) {
+      met->pack_measured = true;
+      met->pack = b.timings.total_ms < 60000 && lod.peak_mib < 4096;
+    }
     table << "| " << set.label << " | " << grouped(b.triangles_in) << " | "
           << fixed(double(a.output_bytes) / 1e6, 3) << " MB | "
           << fixed(double(b.output_bytes) / 1e6, 3) << " MB | " << fixed(overhead, 1) << "% | "
@@ -366,7 +414,7 @@ int main(int argc, char** argv) {
       if (!pack_median(set, options, runs, &median)) return 2;
       Distance distance;
       std::string failure;
-      if (!measure(set, options.output, &distance, &failure)) {
+      if (!measure_in_child(set, options.output, &distance, &failure)) {
         std::fprintf(stderr, "pack_bench: %s: %s\n", set.label.c_str(), failure.c_str());
         return 2;
       }
@@ -446,7 +494,7 @@ int main(int argc, char** argv) {
     lod_sets.push_back(dense);
   }
   std::string lod_table;
-  bool lod_met = false;
+  LevelTargets lod_met;
   if (!levels_table(lod_sets, runs, scratch, &lod_table, &lod_met)) return 2;
   fs::remove_all(scratch);
   std::ostringstream lod_body;
@@ -466,9 +514,13 @@ int main(int argc, char** argv) {
               "(10 samples a triangle; 1 for the dense skeleton) over the error the manifest "
               "records for that part; both are sampled lower bounds.\n\n"
            << lod_table
-           << "\nTargets: levels add at most 15% to the package; the dense skeleton packs with "
-              "levels in under 60 s with a peak under 4 GB: "
-           << (lod_met ? "met." : "**not met** (see the rows).") << "\n";
+           << "\nTargets: levels add at most 15% to the package: "
+           << (lod_met.bytes ? "met" : "**not met** (see the rows)")
+           << "; the dense skeleton packs with levels in under 60 s with a peak under 4 GB: "
+           << (!lod_met.pack_measured ? "not measured (no --dense-voxel)"
+               : lod_met.pack         ? "met"
+                                      : "**not met** (see its row)")
+           << ".\n";
   std::printf("\n%s", lod_body.str().c_str());
   if (!write_path.empty() &&
       !osteon_bench::write_section(write_path, "## Levels of detail in packages", lod_body.str())) {
