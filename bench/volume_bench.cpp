@@ -312,11 +312,37 @@ int main(int argc, char** argv) {
     std::printf("== %s\n", set.label.c_str());
     std::vector<Outcome> outcomes = {run_osteon(set.path, set.labels)};
 #ifdef OSTEON_HAVE_VTK
-    osteon::Result<osteon::LabelVolume> volume = osteon::read_volume(set.path);
-    if (volume.ok()) {
+    // In a child too: TBB's thread pool does not survive fork(), so parallel work here (the
+    // reader, the measurement) would leave every later osteon child on one thread.
+    const std::string text = osteon_bench::run_in_child([&] {
+      osteon::Result<osteon::LabelVolume> volume = osteon::read_volume(set.path);
+      if (!volume.ok()) return std::string();
       osteon::Result<std::vector<uint32_t>> values =
           osteon::select_labels(volume.value(), set.labels);
-      if (values.ok()) outcomes.push_back(run_vtk(volume.value(), values.value()));
+      if (!values.ok()) return std::string();
+      const Outcome o = run_vtk(volume.value(), values.value());
+      return nlohmann::json{{"method", o.method},
+                            {"error", o.error},
+                            {"extract_ms", o.extract_ms},
+                            {"triangles", o.triangles},
+                            {"hmax", o.hausdorff_max},
+                            {"hmean", o.hausdorff_mean},
+                            {"labels", o.labels},
+                            {"closed", o.closed}}
+          .dump();
+    });
+    const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (!j.is_discarded() && j.contains("method")) {
+      Outcome o;
+      o.method = j["method"].get<std::string>();
+      o.error = j["error"].get<std::string>();
+      o.extract_ms = j["extract_ms"];
+      o.triangles = j["triangles"];
+      o.hausdorff_max = j["hmax"];
+      o.hausdorff_mean = j["hmean"];
+      o.labels = j["labels"];
+      o.closed = j["closed"];
+      outcomes.push_back(o);
     }
 #endif
     for (const Outcome& o : outcomes) {
