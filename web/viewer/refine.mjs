@@ -101,24 +101,33 @@ export function instanceSpheres(manifest) {
 export function screenNeeds(manifest, spheres, view, { maxPixelError = 1, shown = () => true } = {}) {
   const planes = frustumPlanes(multiply4(view.projection, view.view));
   const perUnit = pixelsPerUnit(view.fovDeg, view.heightPx);
+  const [px, py, pz] = view.position;
+  const clip = view.clip;
   const needs = new Map();
-  manifest.instances.forEach((inst, i) => {
+  // Plain loops, no closures or temporary arrays an instance: the viewer plans on its main
+  // thread, and a phone runs this cold (interpreted) once per view.
+  const { instances } = manifest;
+  for (let i = 0; i < instances.length; ++i) {
     const sphere = spheres[i];
-    if (!shown(i) || sphereOutside(planes, sphere)) return;
-    if (view.clip) {
-      const { normal: n, constant } = view.clip;
-      if (n[0] * sphere.center[0] + n[1] * sphere.center[1] + n[2] * sphere.center[2] + constant < -sphere.radius) return;
+    if (!shown(i) || sphereOutside(planes, sphere)) continue;
+    const [cx, cy, cz] = sphere.center;
+    if (clip) {
+      const n = clip.normal;
+      if (n[0] * cx + n[1] * cy + n[2] * cz + clip.constant < -sphere.radius) continue;
     }
-    const distance = Math.max(Math.hypot(...sphere.center.map((v, k) => v - view.position[k])) - sphere.radius, view.near);
+    const dx = cx - px, dy = cy - py, dz = cz - pz;
+    const distance = Math.max(Math.hypot(dx, dy, dz) - sphere.radius, view.near);
     const scale = (perUnit * sphere.scale) / distance;
-    const { levels } = manifest.componentById.get(inst.component);
-    let need = needs.get(inst.component);
+    const id = instances[i].component;
+    const { levels } = manifest.componentById.get(id);
+    let need = needs.get(id);
     if (!need) {
-      need = { pixels: levels.map(() => 0), target: 0 };
-      needs.set(inst.component, need);
+      need = { pixels: new Array(levels.length).fill(0), target: 0 };
+      needs.set(id, need);
     }
-    levels.forEach((level, k) => { need.pixels[k] = Math.max(need.pixels[k], level.error * scale); });
-  });
+    const pixels = need.pixels;
+    for (let k = 0; k < levels.length; ++k) pixels[k] = Math.max(pixels[k], levels[k].error * scale);
+  }
   for (const need of needs.values()) {
     const k = need.pixels.findIndex((p) => p <= maxPixelError);
     need.target = k < 0 ? need.pixels.length - 1 : k;
@@ -165,7 +174,13 @@ const keyOf = (rec, level) => `${rec.id}\u0000${level}`;
 
 // The resident levels of `rec` not in `evicted`, coarsest first. Planning asks this of every
 // component several times a plan; most hold their coarsest level alone and nothing is evicted.
+// The answer when only level l is resident and nothing is evicted, shared (callers only read it).
+const kOnly = [];
 function residentLevels(rec, evicted) {
+  if (rec.resident.size === 1 && evicted.size === 0) {
+    const l = rec.resident.keys().next().value;
+    return (kOnly[l] ??= Object.freeze([l]));
+  }
   const out = [];
   for (const l of rec.resident.keys()) if (evicted.size === 0 || !evicted.has(keyOf(rec, l))) out.push(l);
   return out.length > 1 ? out.sort((a, b) => a - b) : out;
@@ -201,7 +216,10 @@ export function assignDrawn(records, needs, triangleBudget, evicted = new Set())
     triangles += rec.levels[base].triangles * rec.uses;
     if (needs.has(rec.id)) onScreen.push(rec);
   }
-  onScreen.sort((a, b) => (needs.get(b.id).pixels[0] - needs.get(a.id).pixels[0]) || (a.order - b.order));
+  // Sort keys read once, not in every comparison.
+  const worst = new Map();
+  for (const rec of onScreen) worst.set(rec, needs.get(rec.id).pixels[0]);
+  onScreen.sort((a, b) => (worst.get(b) - worst.get(a)) || (a.order - b.order));
   for (const rec of onScreen) {
     const resident = residentLevels(rec, evicted);
     const base = drawn.get(rec.id);
@@ -266,12 +284,14 @@ export function planLevels(records, needs, budget, { slots = 0, reserved = { byt
   const fetch = [];
   let reservedBytes = reserved.bytes;
   let reservedTriangles = reserved.triangles;
-  const candidates = list
-    .filter((rec) => needs.has(rec.id) && rec.pending === null)
-    .map((rec) => ({ rec, level: wantedLevel(rec, needs.get(rec.id).target, evicted) }))
-    .filter((c) => c.level > 0)
-    .sort((a, b) => (needs.get(b.rec.id).pixels[drawn.get(b.rec.id)] - needs.get(a.rec.id).pixels[drawn.get(a.rec.id)]) ||
-      (a.rec.order - b.rec.order));
+  const candidates = [];
+  for (const rec of list) {
+    const need = needs.get(rec.id);
+    if (!need || rec.pending !== null) continue;
+    const level = wantedLevel(rec, need.target, evicted);
+    if (level > 0) candidates.push({ rec, level, pixels: need.pixels[drawn.get(rec.id)] });
+  }
+  candidates.sort((a, b) => (b.pixels - a.pixels) || (a.rec.order - b.rec.order));
   for (const { rec, level: want } of candidates) {
     if (fetch.length >= slots) break;
     const resident = residentLevels(rec, evicted);
