@@ -246,7 +246,9 @@ TEST(Hausdorff, MaxOnlyGivesTheSameMaxBitForBit) {
 }
 
 TEST(Hausdorff, KnownMaxKeepsTheLargerExact) {
-  const auto [a, b] = phantom_and_noisy_copy(3, 9);
+  const auto pair = phantom_and_noisy_copy(3, 9);
+  const Mesh& a = pair.first;  // named, not bound: clang's lambdas cannot capture a binding
+  const Mesh& b = pair.second;
   HausdorffOptions options;
   options.samples = 60000;
   options.max_only = true;
