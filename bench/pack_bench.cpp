@@ -254,7 +254,6 @@ std::map<std::string, double> recorded_coarsest(const std::string& dir) {
   return out;
 }
 
-/// The levels-of-detail table: each skeleton at full resolution alone and with levels.
 /// The levels table's two targets, judged separately.
 struct LevelTargets {
   bool bytes = true;           // levels add at most 15% on every skeleton
@@ -262,6 +261,7 @@ struct LevelTargets {
   bool pack = false;           // and packed with levels in under 60 s, peak under 4 GB
 };
 
+/// The levels-of-detail table: each skeleton at full resolution alone and with levels.
 bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& scratch,
                   std::string* table_out, LevelTargets* met) {
   std::ostringstream table;

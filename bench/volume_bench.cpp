@@ -95,6 +95,16 @@ void measure(const osteon::LabelVolume& volume, const std::vector<osteon::Mesh>&
   if (!surfaces.empty()) out->hausdorff_mean = mean_sum / double(surfaces.size());
 }
 
+/// The figures both methods report from their child, as its JSON names them.
+void read_measured(const nlohmann::json& j, Outcome* out) {
+  out->extract_ms = j["extract_ms"];
+  out->triangles = j["triangles"];
+  out->hausdorff_max = j["hmax"];
+  out->hausdorff_mean = j["hmean"];
+  out->labels = j["labels"];
+  out->closed = j["closed"];
+}
+
 /// osteon's extraction of `path`'s selected labels, in a forked child for its peak memory.
 Outcome run_osteon(const std::string& path, const std::vector<std::string>& labels) {
   Outcome out;
@@ -160,15 +170,10 @@ Outcome run_osteon(const std::string& path, const std::vector<std::string>& labe
     out.error = j.is_discarded() ? "the child died" : j["error"].get<std::string>();
     return out;
   }
+  read_measured(j, &out);
   out.read_ms = j["read_ms"];
-  out.extract_ms = j["extract_ms"];
-  out.triangles = j["triangles"];
   out.simplified_triangles = j["simplified"];
   out.simplify_ms = j["simplify_ms"];
-  out.hausdorff_max = j["hmax"];
-  out.hausdorff_mean = j["hmean"];
-  out.labels = j["labels"];
-  out.closed = j["closed"];
   out.peak_mib = double(j["peak_kib"].get<uint64_t>()) / 1024.0;
   out.voxel_bytes = j["voxel_bytes"];
   return out;
@@ -336,12 +341,7 @@ int main(int argc, char** argv) {
       Outcome o;
       o.method = j["method"].get<std::string>();
       o.error = j["error"].get<std::string>();
-      o.extract_ms = j["extract_ms"];
-      o.triangles = j["triangles"];
-      o.hausdorff_max = j["hmax"];
-      o.hausdorff_mean = j["hmean"];
-      o.labels = j["labels"];
-      o.closed = j["closed"];
+      read_measured(j, &o);
       outcomes.push_back(o);
     }
 #endif

@@ -266,7 +266,6 @@ class Decoder {
       }
       return {};
     };
-    if (voxel_count_ == 0) return {};
     Status read = read_from(0, slab_);
     for (uint64_t done = 0; done < voxel_count_ && !stop_;) {
       OSTEON_RETURN_IF_ERROR(read);

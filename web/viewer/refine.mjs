@@ -172,10 +172,12 @@ export function createRecord(manifest, component) {
 
 const keyOf = (rec, level) => `${rec.id}\u0000${level}`;
 
+// residentLevels' answer when only level l is resident and nothing is evicted, shared (callers
+// only read it).
+const kOnly = [];
+
 // The resident levels of `rec` not in `evicted`, coarsest first. Planning asks this of every
 // component several times a plan; most hold their coarsest level alone and nothing is evicted.
-// The answer when only level l is resident and nothing is evicted, shared (callers only read it).
-const kOnly = [];
 function residentLevels(rec, evicted) {
   if (rec.resident.size === 1 && evicted.size === 0) {
     const l = rec.resident.keys().next().value;
@@ -214,13 +216,11 @@ export function assignDrawn(records, needs, triangleBudget, evicted = new Set())
     const base = residentLevels(rec, evicted)[0] ?? 0;
     drawn.set(rec.id, base);
     triangles += rec.levels[base].triangles * rec.uses;
-    if (needs.has(rec.id)) onScreen.push(rec);
+    const need = needs.get(rec.id);
+    if (need) onScreen.push({ rec, worst: need.pixels[0] });  // the sort key read once
   }
-  // Sort keys read once, not in every comparison.
-  const worst = new Map();
-  for (const rec of onScreen) worst.set(rec, needs.get(rec.id).pixels[0]);
-  onScreen.sort((a, b) => (worst.get(b) - worst.get(a)) || (a.order - b.order));
-  for (const rec of onScreen) {
+  onScreen.sort((a, b) => (b.worst - a.worst) || (a.rec.order - b.rec.order));
+  for (const { rec } of onScreen) {
     const resident = residentLevels(rec, evicted);
     const base = drawn.get(rec.id);
     const { target } = needs.get(rec.id);
