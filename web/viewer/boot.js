@@ -6,8 +6,9 @@
 //   - the WebAssembly decoder, fetched and compiled (off the main thread: WebAssembly.compile is
 //     asynchronous);
 //   - the render worker (render_worker.mjs; on the standalone page inlined in the page), given the
-//     canvas as an OffscreenCanvas and the manifest: it creates the WebGL context while three.js
-//     downloads, and draws the first frames without three.js (first_frames.mjs);
+//     canvas as an OffscreenCanvas (in the next animation frame) and the manifest: it creates the
+//     WebGL context while three.js downloads, and draws the first frames without three.js
+//     (first_frames.mjs);
 //   - three.js's part of the renderer (render_three.mjs), fetched here and handed to the render
 //     worker as text: fetched by the worker, it would wait for the worker's own script to arrive
 //     and start (a round trip or more);
@@ -46,6 +47,10 @@ export function manifestUrlOf(src, base) {
   }
   return url.href;
 }
+
+/// How long the render worker waits for the canvas at most when no animation frame comes (a page
+/// opened in a background tab).
+const kCanvasHandOverMs = 100;
 
 /// The largest manifest.json the viewer reads (docs/FORMAT.md, "manifest.json"): its parse is one
 /// task on the page's thread, tens of milliseconds a megabyte.
@@ -180,7 +185,6 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
         }
       }
       worker ??= moduleWorker(files.renderWorker);
-      init.canvas = canvas.transferControlToOffscreen();
     } catch (e) {
       // No module workers, say: the renderer runs on the page instead (below).
       worker?.terminate();
@@ -200,7 +204,29 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
       // The render worker fetches three.js's part itself: the thread that reads a body inflates
       // it, and on a slow phone three.js's 550 KB took this thread for a fifth of a second.
       init.fetchThree = true;
-      worker.postMessage(init, [init.canvas]);
+      worker.postMessage(init);
+      // The canvas follows in the next animation frame, not with 'init': handing it over lays
+      // the page out first (style and layout, a quarter of a second on a slow phone with the
+      // panel), and in this script that would be added to the bootstrap's own task. In the
+      // frame's callback it is the layout the frame does anyway. The worker is starting
+      // meanwhile, and fetching three.js.
+      // (A timer too: a page opened in a background tab gets no animation frame until shown.)
+      let handed = false;
+      const handOver = () => {
+        if (handed) return;
+        handed = true;
+        let offscreen;
+        try {
+          offscreen = canvas.transferControlToOffscreen();
+        } catch (e) {
+          boot.rendererError = `osteon: cannot hand the canvas to the render worker: ${text(e)}`;
+          deliver({ type: 'fatal', error: boot.rendererError, at: performance.now() });
+          return;
+        }
+        worker.postMessage({ type: 'canvas', canvas: offscreen }, [offscreen]);
+      };
+      requestAnimationFrame(handOver);
+      setTimeout(handOver, kCanvasHandOverMs);
       boot.offscreen = true;
     }
   }

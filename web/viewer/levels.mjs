@@ -19,7 +19,7 @@
 //
 // No DOM and no three.js: Node tests run it with fake fetch, decode and renderer.
 
-import { createChunkCache, fetchRange } from './stream.mjs';
+import { createChunkCache, fetchRange, nextTask } from './stream.mjs';
 import { createRecord, evictionOrder, gpuBytes, indexCopies, instanceSpheres, isRefined, planLevels, screenNeeds } from './refine.mjs';
 
 /// What a phone can hold (both are settable: URL parameters, window.osteon.setBudget).
@@ -201,6 +201,11 @@ export function createLevelLoader(manifest, options) {
     report.levelLog.push(log);
     logOf.set(key, log);
     try {
+      // The fetch starts in a task of its own: on a slow phone a fetch() is tens of milliseconds
+      // of this thread, and with the plan that asked for it, one long task.
+      await nextTask();
+      if (signal?.aborted) return;
+      log.fetchStart = now();
       let got;
       try {
         got = await fetchRange({ url: options.base === undefined ? chunk.file : new URL(chunk.file, options.base).href, file: chunk.file, bytes: chunk.bytes },

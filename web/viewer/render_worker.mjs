@@ -31,9 +31,11 @@
 // module and calls startRenderer() with a MessagePort and the canvas.
 //
 // Messages from the page (all on `port`):
-//   { type: 'init', canvas?, width, height, pixelRatio, pageOrigin, base (the URL the viewer's
-//     files are beside: three.js's part), fetchThree (this worker fetches that file itself),
-//     background ('#rrggbb', or absent: camera.mjs kBackground) }
+//   { type: 'init', width, height, pixelRatio, pageOrigin, base (the URL the viewer's files are
+//     beside: three.js's part), fetchThree (this worker fetches that file itself), background
+//     ('#rrggbb', or absent: camera.mjs kBackground) }
+//   { type: 'canvas', canvas }              the OffscreenCanvas, transferred (a renderer on the
+//                                           page has the canvas element from startRenderer)
 //   { type: 'manifest', text } or { type: 'manifest', error }   manifest.json, fetched by the page
 //   { type: 'three', text } or { type: 'three', error }         render_three.mjs, fetched by the
 //                                                               page (without fetchThree)
@@ -426,7 +428,7 @@ async function loadThree(r, text) {
   startView(r);
 }
 
-/// 'init': the page's clock and the canvas; the WebGL context, made before three.js is here.
+/// 'init': the page's clock, where three.js's part is, and (on the page) the canvas.
 function onInit(r, message) {
   r.init = message;
   r.pageOrigin = message.pageOrigin ?? performance.timeOrigin;
@@ -442,7 +444,15 @@ function onInit(r, message) {
       handle(r, { type: 'three', text });
     }, (e) => handle(r, { type: 'three', error: String(e?.message ?? e) }));
   }
-  r.canvas = r.local.canvas ?? message.canvas;
+  const canvas = r.local.canvas ?? message.canvas;
+  if (canvas) onCanvas(r, canvas);
+}
+
+/// The canvas (with 'init' on the page; in its own 'canvas' message in a worker, which the page
+/// sends an animation frame later): the WebGL context, made before three.js is here.
+function onCanvas(r, canvas) {
+  if (r.canvas) return;
+  r.canvas = canvas;
   try {
     r.context = r.canvas.getContext('webgl2', kContextAttributes);
   } catch (e) {
@@ -498,6 +508,9 @@ function handle(r, message) {
   switch (message?.type) {
     case 'init':
       onInit(r, message);
+      return;
+    case 'canvas':
+      onCanvas(r, message.canvas);
       return;
     case 'manifest':
       onManifest(r, message);
