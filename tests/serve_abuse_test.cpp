@@ -266,6 +266,28 @@ TEST(ServeAbuse, IdleKeepAliveConnectionsAreReleased) {
   ::close(fd);
 }
 
+// A client that stops reading a large response: its connection is closed once no byte has moved
+// for the idle timeout, and not before (a throttled browser can leave a download unread a while).
+TEST(ServeAbuse, ClientThatStopsReadingIsClosedAtTheIdleTimeout) {
+  const std::string request = "GET /big.bin HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  for (const int idle_seconds : {1, 4}) {
+    Site site([&](ServeOptions& o) { o.idle_timeout_seconds = idle_seconds; });
+    const int fd = test::connect_loopback(site.port());
+    ASSERT_GE(fd, 0);
+    ASSERT_TRUE(test::send_all(fd, request));
+    // Nothing read for 2.5 s: the socket buffers fill and the server's sends stop.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    const std::string got = test::read_until_close(fd, 10000);
+    ::close(fd);
+    ASSERT_EQ(test::status_of(got), 200) << idle_seconds;
+    if (idle_seconds == 1) {
+      EXPECT_LT(got.size(), size_t(64) << 20) << "cut after 1 s without a byte moving";
+    } else {
+      EXPECT_GT(got.size(), size_t(64) << 20) << "the whole file, headers included: 2.5 s is within 4 s";
+    }
+  }
+}
+
 TEST(ServeAbuse, ClientsThatVanishMidResponse) {
   Site site;
   std::vector<std::thread> clients;

@@ -124,9 +124,13 @@ const kStart = performance.now();
 /// Starts `osteon serve ROOT --port 0` and resolves with { url, stop(), mark(), lines(),
 /// requestsSince(mark) -> [[path, body bytes]] }.
 /// The server's per-request log ("GET /x 200 1234 B 0.3 ms") gives a second count of the bytes.
-function startServer(osteon, root) {
+/// `idleSeconds`: how long a connection may move no byte before the server closes it. The default
+/// (5 s) is too short here: DevTools throttling leaves some of a page's connections unread for
+/// longer while others take the link's share, and the server cut the direct way's large files off.
+function startServer(osteon, root, idleSeconds) {
   return new Promise((resolve, reject) => {
-    const child = spawn(osteon, ['serve', root, '--port', '0', '--host', '127.0.0.1'], { stdio: ['ignore', 'pipe', 'pipe'] });
+    const args = ['serve', root, '--port', '0', '--host', '127.0.0.1', '--idle-timeout', String(idleSeconds)];
+    const child = spawn(osteon, args, { stdio: ['ignore', 'pipe', 'pipe'] });
     const lines = [];
     let stdout = '';
     let settled = false;
@@ -274,7 +278,8 @@ async function main() {
     return;
   }
 
-  const server = await startServer(opt.osteon, path.join(opt.out, 'site'));
+  // A connection may idle as long as a load may take.
+  const server = await startServer(opt.osteon, path.join(opt.out, 'site'), Math.min(3600, Math.max(5, Math.ceil(opt.timeoutMs / 1000))));
   const browser = await launchBrowser(opt.chromium);
   const results = {};
   const started = new Date();

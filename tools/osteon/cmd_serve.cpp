@@ -11,7 +11,7 @@
 #include "serve.hpp"
 
 // osteon serve DIR [--port 8080] [--host 127.0.0.1] [--threads N] [--max-connections N]
-//                  [--max-per-client N] [--header-timeout S]
+//                  [--max-per-client N] [--header-timeout S] [--idle-timeout S]
 // Serves a package folder (what `osteon pack` writes) over HTTP until SIGINT or SIGTERM; prints the
 // URL on stdout and one line per request on stderr.
 
@@ -79,6 +79,9 @@ void register_serve(CLI::App& app, std::function<int()>* run) {
       ->check(CLI::Range(0, 1000000));
   cmd->add_option("--header-timeout", options->header_timeout_seconds,
                   "seconds a request head may take to arrive, whatever its pace (default 5)")
+      ->check(CLI::Range(1, 3600));
+  cmd->add_option("--idle-timeout", options->idle_timeout_seconds,
+                  "seconds a connection may move no byte either way before it is closed (default 5)")
       ->check(CLI::Range(1, 3600));
   cmd->callback([options, run] { *run = [options] { return run_serve(*options); }; });
 }

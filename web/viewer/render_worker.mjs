@@ -75,7 +75,8 @@
 //   { type: 'failed', ids, error, at, level? }        a mesh the scene refused (`level`: a finer
 //                                                     level's, the component stays drawn)
 //   { type: 'fatal', error, at }                      nothing will be drawn
-//   { type: 'timing', name, at }                      a step of the start: 'started', 'context',
+//   { type: 'timing', name, at }                      a step of the start: 'started', 'canvas'
+//                                                     (it arrived), 'context',
 //                                                     'firstFrames' (first_frames.mjs's program
 //                                                     linked), 'three' (loaded), 'view' (renderer
 //                                                     made), 'compiled'
@@ -453,6 +454,7 @@ function onInit(r, message) {
 function onCanvas(r, canvas) {
   if (r.canvas) return;
   r.canvas = canvas;
+  mark(r, 'canvas');
   try {
     r.context = r.canvas.getContext('webgl2', kContextAttributes);
   } catch (e) {
