@@ -122,32 +122,27 @@ async function main(state) {
   report.renderer = boot.offscreen ? 'worker' : 'page';
   report.timings = boot.timings;  // the renderer's steps are added as they come
   if (!boot.offscreen) await startPageRenderer(state);
-  let sized = false;
-  let firstSize;
+  let awaitingSize = null;  // ends the wait for the first size below, on the observer's first call
   const onResize = () => {
     resize(state, $(state, 'view').getBoundingClientRect());
     drawOverlay(state);
-    sized = true;
-    firstSize?.();
+    awaitingSize?.();
+    awaitingSize = null;
   };
   state.resizeObserver = new ResizeObserver(onResize);
   state.resizeObserver.observe($(state, 'view'));
-  const waits = [
-    // The camera's aspect, before the view is fitted below: from the observer's first call, in
-    // the next frame, once the page has laid itself out. Measured here, it would lay the page
-    // out within this script (a fifth of a second on a slow phone). A background tab has no
-    // frames: there it is measured after kFirstSizeWaitMs.
-    new Promise((resolve) => {
-      firstSize = resolve;
-      setTimeout(resolve, kFirstSizeWaitMs);
-    }),
-  ];
+  const after = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
+  // The camera's aspect, before the view is fitted below: from the observer's first call, in the
+  // next frame, once the page has laid itself out. Measured here, it would lay the page out within
+  // this script (a fifth of a second on a slow phone). A background tab has no frames: there it is
+  // measured after kFirstSizeWaitMs.
+  const waits = [Promise.race([new Promise((resolve) => { awaitingSize = resolve; }), after(kFirstSizeWaitMs)])];
   // The render worker gets its first messages through this thread, so this thread's own long
   // work (the manifest's parse, the panel) waits until the worker has started: done first, it
   // would hold back the worker's start, and so its WebGL context, by as long.
-  if (boot.offscreen) waits.push(Promise.race([boot.rendererStarted, new Promise((resolve) => setTimeout(resolve, kRendererStartWaitMs))]));
+  if (boot.offscreen) waits.push(Promise.race([boot.rendererStarted, after(kRendererStartWaitMs)]));
   await Promise.all(waits);
-  if (!sized && !state.destroyed) onResize();
+  if (awaitingSize && !state.destroyed) onResize();
   if (state.destroyed || !(await readManifest(state)) || state.destroyed) return;
   // A task each for the fetch log and the levels' planner, the controls and the panel, and the
   // stream: with thousands of components each is tens of milliseconds on a slow phone.

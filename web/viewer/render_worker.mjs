@@ -445,8 +445,8 @@ function onInit(r, message) {
       handle(r, { type: 'three', text });
     }, (e) => handle(r, { type: 'three', error: String(e?.message ?? e) }));
   }
-  const canvas = r.local.canvas ?? message.canvas;
-  if (canvas) onCanvas(r, canvas);
+  // A worker's canvas comes in its own message (onCanvas).
+  if (r.local.canvas) onCanvas(r, r.local.canvas);
 }
 
 /// The canvas (with 'init' on the page; in its own 'canvas' message in a worker, which the page
