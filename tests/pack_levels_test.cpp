@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -121,10 +123,10 @@ TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
 }
 
 // What the manifest says of a level is what `osteon compare ORIGINAL PACKAGE --level K` measures.
-TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
+/// Packs the phantom with `options` and checks, level by level, that what each part's manifest
+/// entries record is what hausdorff() measures between the part read back and its input.
+void expect_level_errors_measured(PackOptions options, const std::string& out) {
   const std::string input = write_phantom(3);
-  const std::string out = scratch_dir() + "/measured";
-  PackOptions options;
   options.output = out;
   ASSERT_TRUE(pack({input}, options).ok());
   const Manifest m = read_manifest(out);
@@ -164,6 +166,18 @@ TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
       EXPECT_GE(d, 0.25 * recorded) << m.parts[p].name << " level " << level;
     }
   }
+}
+
+TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
+  expect_level_errors_measured(PackOptions(), scratch_dir() + "/measured");
+}
+
+// The same for segmented parts, whose coarser levels keep the part's grid on their border and
+// move the rest of their vertices onto a coarser lattice.
+TEST(PackLevels, SegmentedLevelErrorsMatchWhatIsMeasured) {
+  PackOptions options;
+  options.max_triangles = 1500;  // the phantom's 4k-triangle bones in three or four pieces
+  expect_level_errors_measured(options, scratch_dir() + "/measured_segmented");
 }
 
 // A bone with islands (a label's stray fragments): a small closed island collapses to nothing
@@ -293,6 +307,58 @@ TEST(PackLevels, SegmentedPartsKeepTheirBordersAtEveryLevel) {
     }
   }
   EXPECT_GT(checked, 4u);
+}
+
+uint64_t gcd(uint64_t a, uint64_t b) { return b == 0 ? a : gcd(b, a % b); }
+
+// A segmented part's coarser level keeps the part's grid, so that its border meets the other
+// pieces, but stores the vertices off its border on a coarser lattice (a power of two of grid
+// steps) that its recorded error allows: they cost fewer bits.
+TEST(PackLevels, SegmentedLevelsStoreTheirInsideOnACoarserLattice) {
+  const std::string out = scratch_dir() + "/segmented_lattice";
+  PackOptions options;
+  options.max_triangles = 1500;
+  ASSERT_TRUE(pack_phantom(out, options).ok());
+  const Manifest m = read_manifest(out);
+  size_t coarser = 0, levels = 0;
+  for (const ManifestComponent& c : m.components) {
+    const Mesh finest = decode_level(out, m, c, c.levels.size());
+    if (border_positions(finest).empty()) continue;  // not a piece of a segmented part
+    const std::vector<uint8_t> chunk = read_bytes(out + "/" + m.chunks[c.chunk].file);
+    Result<QuantizationGrid> part_grid = stream_grid(chunk.data() + c.offset, c.bytes, c.id);
+    ASSERT_TRUE(part_grid.ok());
+    for (size_t k = 0; k < c.levels.size(); ++k) {
+      const Mesh level = decode_level(out, m, c, k);
+      const std::set<std::array<float, 3>> border = border_positions(level);
+      const std::vector<uint8_t> level_chunk =
+          read_bytes(out + "/" + m.chunks[c.levels[k].chunk].file);
+      Result<QuantizationGrid> grid = stream_grid(
+          level_chunk.data() + c.levels[k].offset, c.levels[k].bytes, c.id);
+      ASSERT_TRUE(grid.ok());
+      EXPECT_EQ(grid->step, part_grid->step) << c.id << " level " << k;
+      // The largest period every coordinate off the border is a multiple of.
+      uint64_t period = 0;
+      for (const Vec3& p : level.positions) {
+        if (border.count({p.x, p.y, p.z})) continue;
+        for (int axis = 0; axis < 3; ++axis) {
+          const double at = axis == 0 ? p.x - double(grid->origin.x)
+                          : axis == 1 ? p.y - double(grid->origin.y)
+                                      : p.z - double(grid->origin.z);
+          period = gcd(period, uint64_t(std::llabs(std::llround(at / grid->step))));
+        }
+      }
+      ASSERT_GT(period, 0u) << c.id << " level " << k;
+      ++levels;
+      if (period == 1) continue;
+      ++coarser;
+      // A lattice of a power of two whose quantization the level's error includes.
+      const uint64_t lattice = uint64_t{1} << std::countr_zero(period);
+      EXPECT_LE(std::sqrt(3.0) / 2 * double(lattice) * grid->step, c.levels[k].error)
+          << c.id << " level " << k << " lattice " << lattice;
+    }
+  }
+  EXPECT_GT(levels, 4u);
+  EXPECT_GT(coarser, levels / 2) << "most coarser levels store their inside on a coarser lattice";
 }
 
 // A level whose bytes are corrupt fails alone: reading it names its chunk and byte; the full

@@ -380,21 +380,6 @@ Result<std::vector<std::vector<std::vector<detail::DetailLevel>>>> levels_stage(
   return levels_of;
 }
 
-/// The grid step of a coarser level that is `distance` from the full level, on a part grid of
-/// `step`: the part's step times the largest power of two that keeps the added quantization
-/// error (sqrt(3) / 2 steps) within the distance, so the level's error is at most twice its
-/// distance. A level 0.4 mm off need not be stored to 0.05 mm: each doubling saves 3 bits a
-/// vertex (BodyParts3D: the levels' bytes 201 -> 158 KB). Only for a part that is one component: the
-/// coarser grid moves border vertices, and the pieces of a segmented part must meet exactly
-/// (docs/FORMAT.md "Levels of detail").
-double level_step(double step, double distance) {
-  double coarse = step;
-  for (int doublings = 0; doublings < 16 && std::sqrt(3.0) * coarse <= distance; ++doublings) {
-    coarse *= 2;
-  }
-  return coarse;
-}
-
 /// An encoded stream, before it has a place in a chunk.
 struct Stream {
   std::string hash;  ///< SHA-256 of the stream (hex): equal streams are stored once
@@ -448,20 +433,33 @@ Result<EncodedParts> encode_stage(
       encode_options.grid = grid_of[p];
       Encoded& c = out.components[j];
       for (size_t level = 0; level <= levels.size(); ++level) {
-        const Mesh& mesh = level < levels.size() ? levels[level].mesh : pieces_of[p][k];
+        const Mesh* mesh = level < levels.size() ? &levels[level].mesh : &pieces_of[p][k];
         encode_options.grid = grid_of[p];
-        if (level < levels.size() && pieces_of[p].size() == 1) {
-          encode_options.grid.step = level_step(grid_of[p].step, levels[level].distance);
-          encode_options.grid.lattice = 0;  // a coarser grid is off the voxel lattice
+        // A coarser level's vertices within half a coarser step (src/package/level_grid.cpp): a
+        // whole part on a coarser grid; a segmented part's piece on the part's grid, with the
+        // vertices off its border on a lattice of that step.
+        double step = grid_of[p].step;
+        Mesh snapped;
+        if (level < levels.size()) {
+          step = detail::level_step(grid_of[p].step, levels[level].distance);
+          if (pieces_of[p].size() == 1) {
+            encode_options.grid.step = step;
+            encode_options.grid.lattice = 0;  // a coarser grid is off the voxel lattice
+          } else if (step > grid_of[p].step) {
+            const auto period = static_cast<uint32_t>(std::lround(step / grid_of[p].step));
+            snapped = detail::snap_inside_border(*mesh, grid_of[p], period);
+            mesh = &snapped;
+            encode_options.grid.lattice = period;
+          }
         }
         EncodeReport encoded;
-        Result<std::vector<uint8_t>> bytes = encode(mesh, encode_options, &encoded);
+        Result<std::vector<uint8_t>> bytes = encode(*mesh, encode_options, &encoded);
         if (!bytes.ok()) {
           status[j] = bytes.status();
           return;
         }
         // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
-        const double bound = std::sqrt(3.0) / 2 * encoded.grid_step;
+        const double bound = std::sqrt(3.0) / 2 * step;
         if (level < levels.size()) {
           ManifestLevel entry;
           entry.bytes = bytes.value().size();
@@ -473,7 +471,7 @@ Result<EncodedParts> encode_stage(
           c.entry.bytes = bytes.value().size();
           c.entry.triangles = encoded.triangles;
           c.entry.vertices = encoded.vertices;
-          c.entry.bounds = bounding_box(mesh);
+          c.entry.bounds = bounding_box(*mesh);
           c.entry.error_bound = bound;
         }
         c.streams.push_back({sha256_hex(bytes.value()), std::move(bytes.value())});

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "osteon/codec.hpp"
 #include "osteon/mesh.hpp"
 
 #include "osteon/status.hpp"
@@ -170,5 +171,24 @@ struct DetailLevel {
 /// Errors: those of hausdorff() (a non-finite coordinate). Deterministic.
 inline constexpr uint64_t kMinLevelTriangles = 256;
 Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels);
+
+// How a coarser level is stored (src/package/level_grid.cpp).
+
+/// The grid step of a coarser level that is `distance` from the full level, on a part grid of
+/// `step`: the part's step times the largest power of two (at most 2^16) that keeps the added
+/// quantization error (sqrt(3) / 2 steps) within the distance, so the level's error is at most
+/// twice its distance.
+double level_step(double step, double distance);
+
+/// Per vertex of `mesh`, 1 where it lies on an edge that does not have exactly two triangles (the
+/// border that meshopt_SimplifyLockBorder keeps), else 0. O(T log T).
+std::vector<uint8_t> border_vertices(const Mesh& mesh);
+
+/// `mesh` with every vertex off its border (border_vertices) moved to the nearest point of the
+/// lattice of `period` steps of `grid` (origin on a plane), each coordinate then within
+/// period / 2 steps of where it was; border vertices stay where they are, so the pieces of one
+/// part still meet exactly. Positions are written as the codec's dequantization writes them, so
+/// encoding on `grid` finds them on the lattice exactly.
+Mesh snap_inside_border(const Mesh& mesh, const QuantizationGrid& grid, uint32_t period);
 
 }  // namespace osteon::detail
