@@ -56,8 +56,9 @@ export async function createDecoderPool(options = {}) {
   return {
     /// Decodes on the least busy worker. `bytes` (a Uint8Array or an ArrayBuffer) is transferred
     /// when it spans its whole buffer, which is then detached here (pass a copy to keep it); a
-    /// view into a larger buffer is copied. Rejects with Error('osteon: ...').
-    decode(bytes, name) {
+    /// view into a larger buffer is copied. `options`: what the decoder's decode() takes
+    /// (narrowIndices). Rejects with Error('osteon: ...').
+    decode(bytes, name, options) {
       if (bytes instanceof ArrayBuffer) bytes = new Uint8Array(bytes);
       if (!(bytes instanceof Uint8Array)) {
         return Promise.reject(new TypeError('osteon: decode() takes a Uint8Array or an ArrayBuffer'));
@@ -66,7 +67,7 @@ export async function createDecoderPool(options = {}) {
       const worker = workers.reduce((a, b) => (b.jobs < a.jobs ? b : a));
       const id = nextId++;
       const buffer = bytes.buffer;
-      const message = { id, bytes, name };
+      const message = { id, bytes, name, options };
       if (!worker.sentModule) {
         message.wasm = wasm;
         worker.sentModule = true;

@@ -12,10 +12,10 @@ import { createDecoder } from './osteon_decoder.mjs';
 
 let decoder = null;
 
-async function answer({ id, bytes, name, wasm }) {
+async function answer({ id, bytes, name, wasm, options }) {
   try {
     decoder ??= createDecoder(wasm === undefined ? {} : { wasm });
-    const mesh = (await decoder).decode(bytes, name);
+    const mesh = (await decoder).decode(bytes, name, options);
     return [{ id, mesh }, [mesh.positions.buffer, mesh.indices.buffer, mesh.normals.buffer]];
   } catch (e) {
     const message = String(e?.message ?? e);

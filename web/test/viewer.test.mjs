@@ -399,7 +399,9 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
       const mirrored = uses.filter((i) => i.mirror).length;
       return uses.length === 1 ? 1 : (mirrored > 0) + (mirrored < uses.length);
     };
-    const firstGpu = m.components.reduce((sum, c) => sum + levelsOf(c.id)[0].vertices * 24 + levelsOf(c.id)[0].triangles * 12 * copies(c.id), 0);
+    // Float positions and normals; 16-bit indices where they fit (the decodes' kDecodeOptions).
+    const gpuOf = ({ vertices, triangles }, id) => vertices * 24 + triangles * 3 * (vertices <= 65536 ? 2 : 4) * copies(id);
+    const firstGpu = m.components.reduce((sum, c) => sum + gpuOf(levelsOf(c.id)[0], c.id), 0);
     const firstChunks = new Set(m.components.map((c) => (c.levels ? c.levels[0].chunk : c.chunk)));
     const firstBytes = [...firstChunks].reduce((sum, k) => sum + m.chunks[k].bytes, 0);
     assert.ok(m.components.filter((c) => c.levels?.length >= 2).length >= 5, 'most bones have three levels or more');

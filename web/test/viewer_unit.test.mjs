@@ -42,7 +42,8 @@ function fakeMesh(component, level = 0, shrink = 0) {
   const positions = new Float32Array(24);
   for (let v = 0; v < 8; ++v) positions.set([0, 1, 2].map((i) => mid[i] + (1 - shrink) * (((v >> i) & 1 ? max[i] : min[i]) - mid[i])), 3 * v);
   const box = [0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3];
-  const indices = new Uint32Array(3 * component.levels[level].triangles);
+  // 16-bit, as the viewer's decodes hand over the indices of a mesh this small.
+  const indices = new Uint16Array(3 * component.levels[level].triangles);
   indices.set(box.slice(0, indices.length));
   return { positions, indices, normals: new Float32Array(24).fill(0.5) };
 }

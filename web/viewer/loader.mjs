@@ -36,7 +36,7 @@ import { compileDecoder } from '../decoder/osteon_decoder.mjs';
 import { createDecoderPool } from '../decoder/pool.mjs';
 import { findPart, parseManifest } from './manifest.mjs';
 import { createPackageScene } from './scene.mjs';
-import { createChunkStream, kStallMs, planSpans, readWithin, within } from './stream.mjs';
+import { createChunkStream, kDecodeOptions, kStallMs, planSpans, readWithin, within } from './stream.mjs';
 
 const kLevels = new Set(['progressive', 'coarsest', 'finest']);
 const kDefaultTimeout = 30000;          // ms without a byte or a decode: the load fails
@@ -561,7 +561,7 @@ export class OsteonLoader extends Loader {
           const decoder = await pool;
           ++load.decoding;
           try {
-            return await decoder.decode(buffer, range.label);
+            return await decoder.decode(buffer, range.label, kDecodeOptions);
           } finally {
             --load.decoding;
             load.activity = performance.now();

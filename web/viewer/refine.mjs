@@ -145,10 +145,16 @@ export function indexCopies(manifest, id) {
   return (mirrored > 0 ? 1 : 0) + (mirrored < uses.length ? 1 : 0);
 }
 
+/// Bytes of one vertex index of a mesh of `vertices`, as the viewer's decodes hand indices over
+/// (stream.mjs kDecodeOptions): 16 bits where every index fits, else 32.
+export function indexBytes(vertices) {
+  return vertices <= 65536 ? 2 : 4;
+}
+
 /// GPU bytes of a mesh of `vertices` and `triangles` drawn with `copies` index buffers: float
-/// positions and normals, 32-bit indices.
+/// positions and normals, indices of indexBytes().
 export function gpuBytes(vertices, triangles, copies) {
-  return vertices * 24 + triangles * 12 * copies;
+  return vertices * 24 + triangles * 3 * indexBytes(vertices) * copies;
 }
 
 /// The planner's record of one component (levels.mjs keeps them): { id, order (ties: manifest

@@ -92,6 +92,12 @@ function rangeLabel(file, range) {
 /// mid-body would otherwise hold one of the two lanes, and the components behind it, forever.
 export const kStallMs = 15000;
 
+/// What every decode of a component asks the decoder for: indices in 16 bits where they fit (a
+/// component of at most 65,536 vertices; pack's pieces of at most 80,000 triangles have about
+/// half as many), half of what 32 bits cost to hand to the renderer, upload and hold on the GPU
+/// (refine.mjs indexBytes).
+export const kDecodeOptions = { narrowIndices: true };
+
 /// `promise`, or a rejection with Error('no byte for <ms / 1000> s') (its `stalled` set) once `ms`
 /// pass without it settling; `onStall()` then gives up what it waits for (aborts the request,
 /// cancels the reader). Every fetch of the viewer waits through this: for the answer's headers

@@ -10,7 +10,7 @@
 import { createDecoderPool } from '../decoder/pool.mjs';
 import { createLevelLoader } from './levels.mjs';
 import { buildListsSoon, reportError, scheduleStatus, showInfo, updateStats, updateStatus } from './panel.mjs';
-import { createChunkStream, nextTask, planChunks } from './stream.mjs';
+import { createChunkStream, kDecodeOptions, nextTask, planChunks } from './stream.mjs';
 import { emit } from './state.mjs';
 import { send } from './view.mjs';
 
@@ -52,7 +52,7 @@ export function startLog(state) {
     decode: async (buffer, label) => {
       const pool = await state.pool;
       if (state.boot.decoderError) throw new Error(`osteon: ${label}: ${state.boot.decoderError}`);
-      return pool.decode(buffer, label);
+      return pool.decode(buffer, label, kDecodeOptions);
     },
     send: (message, transfer) => send(state, message, transfer),
     onError: (message) => {
@@ -206,7 +206,7 @@ export async function startStream(state) {
     decode: async (buffer, range) => {
       const pool = await poolReady;
       if (boot.decoderError) throw new Error(`osteon: ${range.label}: ${boot.decoderError}`);
-      return pool.decode(buffer, range.label);
+      return pool.decode(buffer, range.label, kDecodeOptions);
     },
     onChunkStart: (chunk, at) => {
       const start = boot.chunkStarts.get(chunk.index) ?? at;

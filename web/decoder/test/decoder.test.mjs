@@ -330,6 +330,22 @@ describe('bad input', () => {
   });
 });
 
+test('narrowIndices: 16-bit indices where every vertex index fits, 32-bit beyond', (t) => {
+  const { bytes, native } = encodeAndDecodeNatively(path.join(work, 'phantom', 'skull.stl'), 'narrow');
+  const mesh = decoder.decode(bytes, 'narrow', { narrowIndices: true });
+  assert.ok(mesh.indices instanceof Uint16Array, `a ${native.vertices}-vertex mesh's indices are 16-bit`);
+  assert.equal(mesh.indices.byteLength, mesh.indices.buffer.byteLength, 'the array owns its buffer');
+  assertSameMesh(mesh, native, 'skull, narrow indices');
+  assert.ok(decoder.decode(bytes).indices instanceof Uint32Array, 'without the option: 32-bit');
+  const large = kTimedMeshes.map((file) => path.join(dataDir, file)).find((file) => existsSync(file));
+  if (!large) return t.skip(`no mesh of more than 65,536 vertices in ${dataDir}`);
+  const dense = encodeAndDecodeNatively(large, 'narrow_large');
+  assert.ok(dense.native.vertices > 65536);
+  const wide = decoder.decode(dense.bytes, 'narrow_large', { narrowIndices: true });
+  assert.ok(wide.indices instanceof Uint32Array, `a ${dense.native.vertices}-vertex mesh keeps 32-bit indices`);
+  assertSameMesh(wide, dense.native, 'narrow_large');
+});
+
 test('memory is released: repeated decodes do not grow the heap', async () => {
   // A fresh instance (16 MiB to start) and a 17k-triangle stream: a leaked mesh (~0.5 MB) or
   // input (~30 KB) per decode would grow the memory within these 200 decodes.
