@@ -67,8 +67,11 @@ export async function createDecoder(options = {}) {
     return new TextDecoder().decode(heap.subarray(ptr, end));
   }
 
-  function copyOut(ex, Type, ptr, length) {
-    return new Type(ex.memory.buffer, ptr >>> 0, length).slice();
+  /// `length` elements of Type at `ptr`, copied into an array of their own (of type `As`, when
+  /// given, converting each element).
+  function copyOut(ex, Type, ptr, length, As) {
+    const view = new Type(ex.memory.buffer, ptr >>> 0, length);
+    return As ? new As(view) : view.slice();
   }
 
   /// Decodes one osteon stream (a Uint8Array or an ArrayBuffer). `name` opens error messages
@@ -98,9 +101,8 @@ export async function createDecoder(options = {}) {
       const triangleCount = ex.osteon_triangle_count(handle) >>> 0;
       return {
         positions: copyOut(ex, Float32Array, ex.osteon_positions(handle), 3 * vertexCount),
-        indices: options.narrowIndices && vertexCount <= 65536
-          ? new Uint16Array(new Uint32Array(ex.memory.buffer, ex.osteon_indices(handle) >>> 0, 3 * triangleCount))
-          : copyOut(ex, Uint32Array, ex.osteon_indices(handle), 3 * triangleCount),
+        indices: copyOut(ex, Uint32Array, ex.osteon_indices(handle), 3 * triangleCount,
+          options.narrowIndices && vertexCount <= 65536 ? Uint16Array : null),
         normals: copyOut(ex, Float32Array, ex.osteon_normals(handle), 3 * vertexCount),
         vertexCount,
         triangleCount,
