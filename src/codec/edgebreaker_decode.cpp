@@ -344,7 +344,6 @@ OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_
   uint32_t* first = newest.first.data();
   uint32_t* neighbour = newest.neighbour.data();
   size_t written = 0;
-  uint32_t kept = 0;  // triangles written: written / 3 without a division
   const bool has_dummies = !dummies.empty();
   std::vector<uint8_t> used(has_dummies ? vertex_count : 0, 0);
   // Where each decoded face went (kFree for a dummy face), when there are dummy faces.
@@ -369,11 +368,10 @@ OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_
     ++first[size_t{hi} + 2];
     neighbour[a ^ b ^ c ^ hi ^ lo] = lo;  // the middle one
     if (has_dummies) {
-      final_face[f] = kept;
+      final_face[f] = static_cast<uint32_t>(written / 3);
       used[a] = used[b] = used[c] = 1;
     }
     written += 3;
-    ++kept;
   }
   if (written != wanted) return fail("fewer triangles than declared");
   if (std::find(used.begin(), used.end(), 0) != used.end()) {

@@ -67,18 +67,13 @@ export async function createDecoder(options = {}) {
     return new TextDecoder().decode(heap.subarray(ptr, end));
   }
 
-  /// `length` elements of Type at `ptr`, copied into an array of their own (of type `As`, when
-  /// given, converting each element).
-  function copyOut(ex, Type, ptr, length, As) {
-    const view = new Type(ex.memory.buffer, ptr >>> 0, length);
-    return As ? new As(view) : view.slice();
+  function copyOut(ex, Type, ptr, length) {
+    return new Type(ex.memory.buffer, ptr >>> 0, length).slice();
   }
 
   /// Decodes one osteon stream (a Uint8Array or an ArrayBuffer). `name` opens error messages
   /// ("osteon: hip.ostm: checksum mismatch ..."). Throws Error('osteon: ...') on bad bytes.
-  /// `options.narrowIndices`: indices as a Uint16Array where every vertex index fits (at most
-  /// 65,536 vertices), half the bytes to hand on and to upload.
-  function decode(bytes, name = 'osteon stream', options = {}) {
+  function decode(bytes, name = 'osteon stream') {
     if (bytes instanceof ArrayBuffer) bytes = new Uint8Array(bytes);
     if (!(bytes instanceof Uint8Array)) {
       throw new TypeError('osteon: decode() takes a Uint8Array or an ArrayBuffer');
@@ -101,8 +96,7 @@ export async function createDecoder(options = {}) {
       const triangleCount = ex.osteon_triangle_count(handle) >>> 0;
       return {
         positions: copyOut(ex, Float32Array, ex.osteon_positions(handle), 3 * vertexCount),
-        indices: copyOut(ex, Uint32Array, ex.osteon_indices(handle), 3 * triangleCount,
-          options.narrowIndices && vertexCount <= 65536 ? Uint16Array : null),
+        indices: copyOut(ex, Uint32Array, ex.osteon_indices(handle), 3 * triangleCount),
         normals: copyOut(ex, Float32Array, ex.osteon_normals(handle), 3 * vertexCount),
         vertexCount,
         triangleCount,

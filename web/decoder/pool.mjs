@@ -56,8 +56,8 @@ export async function createDecoderPool(options = {}) {
   return {
     /// Decodes on the least busy worker. `bytes` (a Uint8Array or an ArrayBuffer) is transferred
     /// when it spans its whole buffer, which is then detached here (pass a copy to keep it); a
-    /// view into a larger buffer is copied. `options`: what the decoder's decode() takes
-    /// (narrowIndices). Rejects with Error('osteon: ...').
+    /// view into a larger buffer is copied. `options.narrowIndices`: indices as a Uint16Array
+    /// where the mesh has at most 65,536 vertices. Rejects with Error('osteon: ...').
     decode(bytes, name, options) {
       if (bytes instanceof ArrayBuffer) bytes = new Uint8Array(bytes);
       if (!(bytes instanceof Uint8Array)) {

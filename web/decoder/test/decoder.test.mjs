@@ -330,22 +330,6 @@ describe('bad input', () => {
   });
 });
 
-test('narrowIndices: 16-bit indices where every vertex index fits, 32-bit beyond', (t) => {
-  const { bytes, native } = encodeAndDecodeNatively(path.join(work, 'phantom', 'skull.stl'), 'narrow');
-  const mesh = decoder.decode(bytes, 'narrow', { narrowIndices: true });
-  assert.ok(mesh.indices instanceof Uint16Array, `a ${native.vertices}-vertex mesh's indices are 16-bit`);
-  assert.equal(mesh.indices.byteLength, mesh.indices.buffer.byteLength, 'the array owns its buffer');
-  assertSameMesh(mesh, native, 'skull, narrow indices');
-  assert.ok(decoder.decode(bytes).indices instanceof Uint32Array, 'without the option: 32-bit');
-  const large = kTimedMeshes.map((file) => path.join(dataDir, file)).find((file) => existsSync(file));
-  if (!large) return t.skip(`no mesh of more than 65,536 vertices in ${dataDir}`);
-  const dense = encodeAndDecodeNatively(large, 'narrow_large');
-  assert.ok(dense.native.vertices > 65536);
-  const wide = decoder.decode(dense.bytes, 'narrow_large', { narrowIndices: true });
-  assert.ok(wide.indices instanceof Uint32Array, `a ${dense.native.vertices}-vertex mesh keeps 32-bit indices`);
-  assertSameMesh(wide, dense.native, 'narrow_large');
-});
-
 test('memory is released: repeated decodes do not grow the heap', async () => {
   // A fresh instance (16 MiB to start) and a 17k-triangle stream: a leaked mesh (~0.5 MB) or
   // input (~30 KB) per decode would grow the memory within these 200 decodes.
@@ -417,6 +401,31 @@ test('worker pool: decodes in workers, transfers buffers, reports errors', async
     const mesh = await pool.decode(padded.subarray(8), parts[1]);
     assert.equal(padded.byteLength, streams[1].length + 8);
     assert.deepEqual(mesh.indices, expected[1].indices);
+    // narrowIndices: 16-bit indices where every vertex index fits, the same values.
+    const narrow = await pool.decode(Uint8Array.from(streams[2]), parts[2], { narrowIndices: true });
+    assert.ok(narrow.indices instanceof Uint16Array, `${parts[2]}: 16-bit indices`);
+    assert.equal(narrow.indices.byteLength, narrow.indices.buffer.byteLength, 'the array owns its buffer');
+    assert.deepEqual(Array.from(narrow.indices), Array.from(expected[2].indices));
+    assert.deepEqual(narrow.positions, expected[2].positions);
+  } finally {
+    pool.terminate();
+  }
+});
+
+test('worker pool: narrowIndices keeps 32-bit indices beyond 65,536 vertices', async (t) => {
+  const large = kTimedMeshes.map((file) => path.join(dataDir, file)).find((file) => existsSync(file));
+  if (!large) return t.skip(`no mesh of more than 65,536 vertices in ${dataDir}`);
+  const { bytes, native } = encodeAndDecodeNatively(large, 'narrow_large');
+  assert.ok(native.vertices > 65536);
+  const { createDecoderPool } = await import(pathToFileURL(path.join(wasmDir, 'pool.mjs')));
+  const pool = await createDecoderPool({
+    workers: 1,
+    createWorker: () => new Worker(new URL(pathToFileURL(path.join(wasmDir, 'worker.mjs')))),
+  });
+  try {
+    const mesh = await pool.decode(bytes, 'narrow_large', { narrowIndices: true });
+    assert.ok(mesh.indices instanceof Uint32Array, `a ${native.vertices}-vertex mesh keeps 32-bit indices`);
+    assertSameMesh(mesh, native, 'narrow_large');
   } finally {
     pool.terminate();
   }
