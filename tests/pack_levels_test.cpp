@@ -15,6 +15,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <set>
 #include <string>
 #include <vector>
@@ -42,9 +43,9 @@ Manifest read_manifest(const std::string& dir) {
   return manifest.ok() ? manifest.value() : Manifest{};
 }
 
-/// Stream `level` of `c` (coarsest 0; c.levels.size() is the full one), decoded.
-Mesh decode_level(const std::string& dir, const Manifest& m, const ManifestComponent& c,
-                  size_t level) {
+/// The bytes of stream `level` of `c` (coarsest 0; c.levels.size() is the full one).
+std::vector<uint8_t> level_stream(const std::string& dir, const Manifest& m,
+                                  const ManifestComponent& c, size_t level) {
   uint64_t chunk = c.chunk, offset = c.offset, bytes = c.bytes;
   if (level < c.levels.size()) {
     chunk = c.levels[level].chunk;
@@ -52,7 +53,16 @@ Mesh decode_level(const std::string& dir, const Manifest& m, const ManifestCompo
     bytes = c.levels[level].bytes;
   }
   const std::vector<uint8_t> data = read_bytes(dir + "/" + m.chunks[chunk].file);
-  Result<Mesh> mesh = decode(data.data() + offset, bytes, m.chunks[chunk].file);
+  EXPECT_LE(offset + bytes, data.size()) << m.chunks[chunk].file;
+  if (offset + bytes > data.size()) return {};
+  return std::vector<uint8_t>(data.begin() + offset, data.begin() + offset + bytes);
+}
+
+/// Stream `level` of `c`, decoded.
+Mesh decode_level(const std::string& dir, const Manifest& m, const ManifestComponent& c,
+                  size_t level) {
+  const std::vector<uint8_t> stream = level_stream(dir, m, c, level);
+  Result<Mesh> mesh = decode(stream.data(), stream.size(), c.id);
   EXPECT_TRUE(mesh.ok()) << mesh.status().message();
   return mesh.ok() ? mesh.value() : Mesh{};
 }
@@ -309,8 +319,6 @@ TEST(PackLevels, SegmentedPartsKeepTheirBordersAtEveryLevel) {
   EXPECT_GT(checked, 4u);
 }
 
-uint64_t gcd(uint64_t a, uint64_t b) { return b == 0 ? a : gcd(b, a % b); }
-
 // A segmented part's coarser level keeps the part's grid, so that its border meets the other
 // pieces, but stores the vertices off its border on a coarser lattice (a power of two of grid
 // steps) that its recorded error allows: they cost fewer bits.
@@ -324,27 +332,25 @@ TEST(PackLevels, SegmentedLevelsStoreTheirInsideOnACoarserLattice) {
   for (const ManifestComponent& c : m.components) {
     const Mesh finest = decode_level(out, m, c, c.levels.size());
     if (border_positions(finest).empty()) continue;  // not a piece of a segmented part
-    const std::vector<uint8_t> chunk = read_bytes(out + "/" + m.chunks[c.chunk].file);
-    Result<QuantizationGrid> part_grid = stream_grid(chunk.data() + c.offset, c.bytes, c.id);
+    const std::vector<uint8_t> full = level_stream(out, m, c, c.levels.size());
+    Result<QuantizationGrid> part_grid = stream_grid(full.data(), full.size(), c.id);
     ASSERT_TRUE(part_grid.ok());
     for (size_t k = 0; k < c.levels.size(); ++k) {
-      const Mesh level = decode_level(out, m, c, k);
-      const std::set<std::array<float, 3>> border = border_positions(level);
-      const std::vector<uint8_t> level_chunk =
-          read_bytes(out + "/" + m.chunks[c.levels[k].chunk].file);
-      Result<QuantizationGrid> grid = stream_grid(
-          level_chunk.data() + c.levels[k].offset, c.levels[k].bytes, c.id);
-      ASSERT_TRUE(grid.ok());
+      const std::vector<uint8_t> stream = level_stream(out, m, c, k);
+      Result<Mesh> level = decode(stream.data(), stream.size(), c.id);
+      Result<QuantizationGrid> grid = stream_grid(stream.data(), stream.size(), c.id);
+      ASSERT_TRUE(level.ok() && grid.ok()) << c.id << " level " << k;
+      const std::set<std::array<float, 3>> border = border_positions(level.value());
       EXPECT_EQ(grid->step, part_grid->step) << c.id << " level " << k;
       // The largest period every coordinate off the border is a multiple of.
       uint64_t period = 0;
-      for (const Vec3& p : level.positions) {
+      for (const Vec3& p : level->positions) {
         if (border.count({p.x, p.y, p.z})) continue;
         for (int axis = 0; axis < 3; ++axis) {
           const double at = axis == 0 ? p.x - double(grid->origin.x)
                           : axis == 1 ? p.y - double(grid->origin.y)
                                       : p.z - double(grid->origin.z);
-          period = gcd(period, uint64_t(std::llabs(std::llround(at / grid->step))));
+          period = std::gcd(period, uint64_t(std::llabs(std::llround(at / grid->step))));
         }
       }
       ASSERT_GT(period, 0u) << c.id << " level " << k;

@@ -429,11 +429,10 @@ Result<EncodedParts> encode_stage(
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
       const auto [p, k] = jobs[j];
       const std::vector<detail::DetailLevel>& levels = levels_of[p][k];
-      EncodeOptions encode_options;
-      encode_options.grid = grid_of[p];
       Encoded& c = out.components[j];
       for (size_t level = 0; level <= levels.size(); ++level) {
         const Mesh* mesh = level < levels.size() ? &levels[level].mesh : &pieces_of[p][k];
+        EncodeOptions encode_options;
         encode_options.grid = grid_of[p];
         // A coarser level's vertices within half a coarser step (src/package/level_grid.cpp): a
         // whole part on a coarser grid; a segmented part's piece on the part's grid, with the

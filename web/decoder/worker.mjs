@@ -18,7 +18,9 @@ async function answer({ id, bytes, name, wasm, options }) {
     const mesh = (await decoder).decode(bytes, name);
     // 16-bit indices where every index fits: half the bytes to hand on, upload and hold. Here,
     // not in the wrapper, whose download is budgeted.
-    if (options?.narrowIndices && mesh.vertexCount <= 65536) mesh.indices = new Uint16Array(mesh.indices);
+    if (options?.narrowIndices && mesh.vertexCount <= 65536) {
+      mesh.indices = new Uint16Array(mesh.indices);
+    }
     return [{ id, mesh }, [mesh.positions.buffer, mesh.indices.buffer, mesh.normals.buffer]];
   } catch (e) {
     const message = String(e?.message ?? e);
