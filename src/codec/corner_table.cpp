@@ -100,13 +100,14 @@ ClosedManifold close_to_manifold(const std::vector<uint32_t>& indices, uint32_t 
       out.copy_of.push_back(v);
     }
     has_fan[v.value] = 1;
-    CornerIndex s = c;  // walk back to the path's first corner (or once round a cycle)
-    for (CornerIndex r = table.swing_in(s); r.valid() && r != c; r = table.swing_in(s)) s = r;
-    CornerIndex q = s;
-    do {
-      split[q] = id;
-      q = table.swing_out(q);
-    } while (q.valid() && q != s);
+    // Walk back from c, marking, once round a cycle or to a path's first corner; a path's
+    // corners after c are then marked walking forward (swing_in and swing_out are inverses).
+    split[c] = id;
+    CornerIndex r = table.swing_in(c);
+    for (; r.valid() && r != c; r = table.swing_in(r)) split[r] = id;
+    if (!r.valid()) {
+      for (CornerIndex q = table.swing_out(c); q.valid(); q = table.swing_out(q)) split[q] = id;
+    }
   }
   table.vertex = std::move(split);
   out.first_dummy = next_id;

@@ -59,7 +59,15 @@ class IndexVector {
   const T& operator[](I i) const { return data_[i.value]; }
   size_t size() const { return data_.size(); }
   void assign(size_t n, T fill) { data_.assign(n, fill); }
-  void resize(size_t n, T fill = T()) { data_.resize(n, fill); }
+  /// Grows with `fill`; the default fill (T(): no index) as a memset, which g++ 12 does not
+  /// make of resize(n, fill) (it stores each element through the stack).
+  void resize(size_t n, T fill = T()) {
+    if (fill == T()) {
+      data_.resize(n);
+    } else {
+      data_.resize(n, fill);
+    }
+  }
   void push_back(T v) { data_.push_back(v); }
   T* data() { return data_.data(); }
   const T* data() const { return data_.data(); }

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
+#include <cassert>
 #include <string>
 #include <utility>
 #include <vector>
@@ -129,10 +130,6 @@ Traversal traverse(const ClosedManifold& m) {
   return out;
 }
 
-CornerIndex rotate(CornerIndex c, uint32_t k) {
-  return k == 0 ? c : k == 1 ? next(c) : prev(c);
-}
-
 Status internal(const std::string& what) {
   return error(ErrorCode::kInvalidArgument, "connectivity encoder", "internal error: " + what);
 }
@@ -204,31 +201,29 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   if (!core.close_components()) return internal(std::string("decoder: ") + core.what());
   if (core.vertex_ids() != vertex_ids) return internal("vertex id count");
 
-  // The rebuilt table must be the encoded one: decoded corner 3k+j is the traversal corner
-  // rotate(tip, j), start faces after the symbols, first-encoded component first.
-  const uint32_t corners = 3 * core.faces();
-  auto encoded_corner = [&](uint32_t dc) {
-    const uint32_t f = dc / 3;
+  // The decoder id of each encoder vertex, read off the rebuilt table: decoded face k's corners are
+  // the traversal's tip, next(tip) and prev(tip), start faces after the symbols, first-encoded component
+  // first. Every id must stand for one encoder vertex, so that each decoded face has its encoded
+  // face's vertices.
+  std::vector<uint32_t> encoded_of_id(vertex_ids, kNone);  // decoder id -> encoder vertex
+  const VertexIndex* decoded_vertex = core.corner_vertex();
+  for (uint32_t f = 0; f < core.faces(); ++f) {
     const CornerIndex base = f < n ? tr.tips[n - 1 - f] : tr.starts[f - n];
-    return rotate(base, dc % 3);
-  };
-  std::vector<uint32_t> encoded_of_id(vertex_ids, kNone);          // decoder id -> encoder vertex
+    const CornerIndex corner[3] = {base, next(base), prev(base)};
+    for (uint32_t j = 0; j < 3; ++j) {
+      const uint32_t id = decoded_vertex[3 * f + j].value;
+      const uint32_t ev = table.v(corner[j]).value;
+      if (encoded_of_id[id] != ev && encoded_of_id[id] != kNone) {
+        return internal("the rebuilt vertices differ from the encoded ones");
+      }
+      encoded_of_id[id] = ev;
+    }
+  }
   std::vector<uint32_t> id_of_encoded(table.vertex_count, kNone);  // encoder vertex -> decoder id
-  std::vector<uint32_t> encoded_of_corner(corners);
-  for (uint32_t dc = 0; dc < corners; ++dc) encoded_of_corner[dc] = encoded_corner(dc).value;
-  for (uint32_t dc = 0; dc < corners; ++dc) {
-    const CornerIndex ec(encoded_of_corner[dc]);
-    const CornerIndex dopp = core.opposite(CornerIndex(dc));
-    if (!dopp.valid() || CornerIndex(encoded_of_corner[dopp.value]) != table.o(ec)) {
-      return internal("the rebuilt corner table differs from the encoded one");
-    }
-    const uint32_t id = core.vertex(CornerIndex(dc)).value;
-    const uint32_t ev = table.v(ec).value;
-    if (encoded_of_id[id] == kNone) encoded_of_id[id] = ev;
-    if (id_of_encoded[ev] == kNone) id_of_encoded[ev] = id;
-    if (encoded_of_id[id] != ev || id_of_encoded[ev] != id) {
-      return internal("the rebuilt vertices differ from the encoded ones");
-    }
+  for (uint32_t id = 0; id < vertex_ids; ++id) {
+    if (encoded_of_id[id] == kNone) continue;
+    if (id_of_encoded[encoded_of_id[id]] != kNone) return internal("two ids for one vertex");
+    id_of_encoded[encoded_of_id[id]] = id;
   }
 
   // Dummy vertices and glue pairs, in decoder ids.
@@ -259,6 +254,10 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     if (slot != kNone && slot != ev) return internal("two input vertices decode as one");
     slot = ev;
   }
+  if (std::find(out.vertex_order.begin(), out.vertex_order.end(), kNone) !=
+      out.vertex_order.end()) {
+    return internal("an input vertex decodes as none");
+  }
 
   // The section (docs/FORMAT.md, "Connectivity section").
   std::vector<uint8_t>& bytes = out.bytes;
@@ -286,26 +285,52 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
 
   // Each context model the encoder tries is sized from its symbols' counts alone, by the tables
   // the entropy coder would plan for them (plan_symbols); only the smallest is coded, with that
-  // plan.
+  // plan. The symbols are counted once, by every feature at once (the joint model: all three
+  // previous symbols, va and 8 len buckets); each model's counts are sums of joint contexts, and
+  // its contexts occur first where their first joint context does.
+  constexpr ContextModel kJoint = {3, 1, 8};
+  SymbolContext joint(kJoint);
+  assert(joint.contexts() == 5 * 5 * 5 * 8 * 8);
+  std::vector<uint32_t> joint_counts(size_t{joint.contexts()} * kSymbolCount, 0);
+  std::vector<uint16_t> joint_of(n);  // per symbol: its joint context (< 8000)
+  std::vector<uint32_t> joint_order;  // the joint contexts that occur, by first symbol
+  {
+    std::vector<uint8_t> seen(joint.contexts(), 0);
+    for (uint32_t k = 0; k < n; ++k) {
+      const uint32_t j = joint.get(valences[k]);
+      joint_of[k] = static_cast<uint16_t>(j);
+      if (!seen[j]) {
+        seen[j] = 1;
+        joint_order.push_back(j);
+      }
+      ++joint_counts[size_t{j} * kSymbolCount + decoded_symbols[k]];
+      joint.update(decoded_symbols[k]);
+    }
+  }
+  // A joint context's features: j = (((p1 * 5 + p2) * 5 + p3) * 8 + va) * 8 + len8.
+  auto model_context = [](const SymbolContext& model, uint32_t j) {
+    return model.compose(j / 1600, j / 320 % 5, j / 64 % 5, j / 8 % 8, j % 8);
+  };
   uint32_t best_model = 0;
   SymbolPlan best_plan;
   const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
   std::vector<uint32_t> counts;
-  std::vector<uint32_t> order;  // the contexts that occur, by first symbol
+  std::vector<uint32_t> order;  // the model's contexts that occur, by first symbol
   std::vector<uint8_t> seen;
   for (uint32_t model = 0; model < models; ++model) {
-    SymbolContext context(kContextModels[model]);
+    const SymbolContext context(kContextModels[model]);
     counts.assign(size_t{context.contexts()} * kSymbolCount, 0);
     seen.assign(context.contexts(), 0);
     order.clear();
-    for (uint32_t k = 0; k < n; ++k) {
-      const uint32_t c = context.get(valences[k]);
+    for (uint32_t j : joint_order) {
+      const uint32_t c = model_context(context, j);
       if (!seen[c]) {
         seen[c] = 1;
         order.push_back(c);
       }
-      ++counts[size_t{c} * kSymbolCount + decoded_symbols[k]];
-      context.update(decoded_symbols[k]);
+      for (uint32_t s = 0; s < kSymbolCount; ++s) {
+        counts[size_t{c} * kSymbolCount + s] += joint_counts[size_t{j} * kSymbolCount + s];
+      }
     }
     SymbolPlan plan = plan_symbols(counts, order, context.contexts(), kSymbolCount);
     if (model == 0 || plan.bits < best_plan.bits) {
@@ -313,13 +338,12 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
       best_model = model;
     }
   }
-  SymbolContext context(kContextModels[best_model]);
+  const SymbolContext context(kContextModels[best_model]);
+  std::vector<uint32_t> context_of_joint(joint.contexts());
+  for (uint32_t j : joint_order) context_of_joint[j] = model_context(context, j);
   SymbolEncoder coder(kSymbolCount, context.contexts());
   coder.reserve(n);
-  for (uint32_t k = 0; k < n; ++k) {
-    coder.put(context.get(valences[k]), decoded_symbols[k]);
-    context.update(decoded_symbols[k]);
-  }
+  for (uint32_t k = 0; k < n; ++k) coder.put(context_of_joint[joint_of[k]], decoded_symbols[k]);
   coder.use_plan(std::move(best_plan));
   std::vector<uint8_t> best;
   coder.append_to(&best);

@@ -260,6 +260,16 @@ class SymbolContext {
   }
   uint32_t contexts() const { return contexts_; }
 
+  /// The context that get() returns after the previous symbols p1, p2, p3 (< 5; 0 before the
+  /// first), with va (clamped to 7) and len in its 8-bucket form len8 (0..7, as in the
+  /// constructor). The encoder counts its symbols once by every feature and maps the counts onto
+  /// each model with this.
+  uint32_t compose(uint32_t p1, uint32_t p2, uint32_t p3, uint32_t va, uint32_t len8) const {
+    static constexpr uint8_t kLenOfBucket[8] = {0, 1, 2, 3, 4, 8, 16, 32};  // a len in each
+    return w_p1_ * p1 + w_p2_ * p2 + w_p3_ * p3 + w_va_ * (va < 7 ? va : 7) +
+           len_term_[kLenOfBucket[len8 & 7]];
+  }
+
   /// The context of the next symbol; `va` = SpiraleReversi::next_valence() of the one before it
   /// (0 for the first symbol). The history part is summed in update(), off the decoder's
   /// critical path, which runs through va.

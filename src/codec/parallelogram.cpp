@@ -236,6 +236,9 @@ double estimated_bits(const std::vector<uint32_t>& histogram, uint32_t contexts,
   return bits;
 }
 
+// The vertices the encoder measures each coding on before it chooses one (encode_geometry).
+constexpr uint32_t kMeasuredVertices = 16384;
+
 // Version 2's lattice coding (see the top of the file): a mask symbol, then three residual
 // symbols, per vertex, in one symbol section.
 constexpr uint32_t kMaxLattice = uint32_t{1} << 24;  // lattice periods 2..2^24 grid steps
@@ -368,8 +371,8 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
 // each (context, symbol, z, is_residual) to `sink` (the mask symbol has no raw bits).
 template <class Sink>
 void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, int64_t lattice, Sink&& sink) {
-  const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
+                 PredictionMode mode, int64_t lattice, uint32_t vertex_count, Sink&& sink) {
+  assert(vertex_count <= q.xyz.size() / 3);
   std::vector<uint32_t> symbols(vertex_count);
   const int32_t* xyz = q.xyz.data();
   uint32_t previous[3] = {0, 0, 0};
@@ -420,6 +423,10 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   if (lattice < 2 || lattice > kMaxLattice) lattice = 0;
 
   // Measure both prediction modes, with and without the lattice, then code with the cheapest.
+  // They are measured on the first kMeasuredVertices vertices: a prefix in decoding order is a
+  // connected patch coded as the whole mesh codes it (its contexts come from vertices before),
+  // and half a million vertices would take 2-4 measuring passes as long as the coding pass.
+  const uint32_t measured = std::min(vertex_count, kMeasuredVertices);
   PredictionMode best = kAverageAll;
   bool best_lattice = false;
   double best_bits = 0;
@@ -432,7 +439,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
         ++histogram[size_t{context} * kResidualSymbols + symbol];
         if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
       };
-      encode_loop(nt, q, model, PredictionMode(m), use_lattice ? lattice : 0, count);
+      encode_loop(nt, q, model, PredictionMode(m), use_lattice ? lattice : 0, measured, count);
       const double bits = estimated_bits(histogram, contexts, raw_bits);
       if ((use_lattice == 0 && m == 0) || bits < best_bits) {
         best = PredictionMode(m);
@@ -446,7 +453,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   ByteWriter writer(out);
   writer.write_varint(best_lattice ? lattice : 0);
   SymbolEncoder enc(kResidualSymbols, best_lattice ? kLatticeContexts : model.contexts());
-  encode_loop(nt, q, model, best, best_lattice ? lattice : 0,
+  encode_loop(nt, q, model, best, best_lattice ? lattice : 0, vertex_count,
               [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
                 enc.put(context, symbol);
                 if (residual) put_residual_bits(enc, symbol, z);
