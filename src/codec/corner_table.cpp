@@ -36,6 +36,7 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
     uint32_t corner;
     bool operator<(const Edge& e) const { return to < e.to || (to == e.to && corner < e.corner); }
   };
+  constexpr ptrdiff_t kInsertionSorted = 16;  // longer buckets (rare) go to std::sort
   std::vector<Edge> edges;
   reserve_huge(&edges, corners);
   edges.resize(corners);
@@ -47,8 +48,18 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
     }
   }
   for (uint32_t v = 0; v < vertex_count; ++v) {
-    if (start[v + 1] - start[v] > 1)
-      std::sort(edges.begin() + start[v], edges.begin() + start[v + 1]);
+    Edge* const first = edges.data() + start[v];
+    Edge* const last = edges.data() + start[v + 1];
+    if (last - first > kInsertionSorted) {
+      std::sort(first, last);
+      continue;
+    }
+    for (Edge* e = first + 1; e < last; ++e) {  // a vertex's valence: inline insertion sort
+      const Edge moved = *e;
+      Edge* hole = e;
+      for (; hole > first && moved < hole[-1]; --hole) *hole = hole[-1];
+      *hole = moved;
+    }
   }
   // The run of edges from -> to, as [first, last).
   auto run = [&](uint32_t from, uint32_t to) {

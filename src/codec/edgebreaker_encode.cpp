@@ -15,10 +15,10 @@
 // each component is traversed from a start face, one CLERS symbol per other face. The symbols are
 // stored in reverse for the Spirale Reversi decoder, with one topology split event per handle.
 //
-// The encoder then runs the decoder's core on its own symbols and checks that the rebuilt corner
-// table is the one it encoded, corner for corner. That check is what makes the split events, the
-// dummy vertex ids and the glue pairs right by construction: they are read off the rebuilt table,
-// and the decoded triangles and vertex order returned to the caller are the decoder's own.
+// The encoder then runs the decoder's core on its own symbols and checks that each vertex of the
+// rebuilt table is one vertex it encoded, so that every decoded face has its encoded face's
+// vertices. The dummy vertex ids and the glue pairs are read off the rebuilt table, and the decoded
+// triangles and vertex order returned to the caller are the decoder's own.
 //
 // Based on: J. Rossignac, "Edgebreaker: connectivity compression for triangle meshes", IEEE TVCG
 // 5(1), 1999 (CLERS, dummy vertices for holes); J. Rossignac, A. Safonova, A. Szymczak, "3D
