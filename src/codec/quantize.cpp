@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <utility>
 #include <vector>
@@ -88,13 +89,23 @@ void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* 
   {
     // Cheap rejection first: on a lattice, most x coordinates repeat another's exactly (a plane
     // holds many vertices); elsewhere few do.
+    // Counted in an open-addressing set of the values' bits (a sort of the probe took 3% of a
+    // 10,000-triangle encode): repeats = probed - distinct.
     const size_t stride = std::max<size_t>(1, positions.size() / kLatticeProbe);
-    std::vector<float> probe;
-    for (size_t i = 0; i < positions.size(); i += stride) probe.push_back(positions[i].x);
-    std::sort(probe.begin(), probe.end());
-    size_t repeats = 0;
-    for (size_t i = 1; i < probe.size(); ++i) repeats += probe[i] == probe[i - 1] ? 1 : 0;
-    if (repeats * 8 < probe.size()) return;
+    constexpr uint32_t kEmpty = 0xFFFFFFFFu;  // a NaN's bits: never a probed value
+    constexpr int kSetBits = 14;               // 16,384 slots for at most 2 * 4,096 values
+    std::vector<uint32_t> set(size_t{1} << kSetBits, kEmpty);
+    size_t probed = 0, repeats = 0;
+    for (size_t i = 0; i < positions.size(); i += stride, ++probed) {
+      const float x = positions[i].x + 0.0f;  // -0 as +0, which compares equal to it
+      if (std::isnan(x)) continue;            // equal to nothing
+      const uint32_t key = std::bit_cast<uint32_t>(x);
+      uint32_t slot = (key * 0x9E3779B1u) >> (32 - kSetBits);
+      while (set[slot] != kEmpty && set[slot] != key) slot = (slot + 1) & ((1u << kSetBits) - 1);
+      repeats += set[slot] == key ? 1 : 0;
+      set[slot] = key;
+    }
+    if (repeats * 8 < probed) return;
   }
   const size_t stride = std::max<size_t>(1, positions.size() / kLatticeSample);
   std::vector<Vec3> sample;
