@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
-#include <bit>
 #include <cmath>
+#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -99,7 +99,8 @@ void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* 
     for (size_t i = 0; i < positions.size(); i += stride, ++probed) {
       const float x = positions[i].x + 0.0f;  // -0 as +0, which compares equal to it
       if (std::isnan(x)) continue;            // equal to nothing
-      const uint32_t key = std::bit_cast<uint32_t>(x);
+      uint32_t key = 0;
+      std::memcpy(&key, &x, sizeof key);
       uint32_t slot = (key * 0x9E3779B1u) >> (32 - kSetBits);
       while (set[slot] != kEmpty && set[slot] != key) slot = (slot + 1) & ((1u << kSetBits) - 1);
       repeats += set[slot] == key ? 1 : 0;
