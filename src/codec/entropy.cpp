@@ -390,10 +390,11 @@ double dense_bits(const uint32_t* a, const uint32_t* b, uint32_t alphabet) {
 /// Which table each used context (row of `counts`, `alphabet` wide) codes with: contexts share a
 /// table where the table bits saved outweigh the coding loss, which matters for small meshes
 /// whose many contexts see a few symbols each. Greedy agglomerative merging on the estimate
-/// above, best pair first. Only rows with fewer than kMergeBelow symbols take part, the smallest
+/// above, best pair first (of equal pairs, the one of lower indices). Only rows with fewer than kMergeBelow symbols take part, the smallest
 /// first, at most kMergeCandidates of them and few enough that m^2 * min(alphabet, present
-/// symbols) stays under kMergeWork, which bounds the time. Returns a group per row (the row
-/// whose counts the group's table uses); rows of a group share a table.
+/// symbols) stays under kMergeWork, which bounds the time; the pairs' savings take m^2 doubles
+/// (at most 2 MiB). Returns a group per row (the row whose counts the group's table uses); rows
+/// of a group share a table.
 constexpr size_t kMergeCandidates = 512;
 constexpr uint64_t kMergeBelow = 4096;
 constexpr uint64_t kMergeWork = uint64_t{1} << 21;
@@ -438,8 +439,7 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
                  : merged_bits(cluster[a], cluster[b]);
   };
   std::vector<double> bits(m);
-  std::vector<uint32_t> version(m, 0);  // bumped by every merge into the cluster
-  std::vector<bool> alive(m, true);
+  std::vector<uint8_t> alive(m, 1);
   for (size_t i = 0; i < m; ++i) {
     const uint32_t* row = &counts[size_t{sizes[i].row} * alphabet];
     if (dense) {
@@ -452,32 +452,43 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
     }
     bits[i] = estimated_bits(cluster[i]);
   }
-  // Candidate merges by bits saved, stale entries (a merged cluster's old gains) skipped.
-  struct Merge {
-    double gain;
-    uint32_t a, b, version_a, version_b;
-    bool operator<(const Merge& o) const { return gain < o.gain; }
-  };
+  // The bits each pair of clusters saves merged (symmetric: kept for a < b), and each cluster's
+  // best partner: the most saved, the lower index among equals (none while nothing is saved).
+  // Finding the best merge is then a pass over the clusters, and a merge re-evaluates the
+  // merged cluster's pairs and re-scans only the clusters whose partner it took.
   constexpr double kReferenceBits = 3;  // a context naming a table defined before it
-  std::priority_queue<Merge> merges;
-  auto consider = [&](size_t a, size_t b) {
-    const double gain = bits[a] + bits[b] - pair_bits(a, b) - kReferenceBits;
-    if (gain > 0) {
-      merges.push(
-          Merge{gain, static_cast<uint32_t>(a), static_cast<uint32_t>(b), version[a], version[b]});
+  constexpr uint32_t kNoPartner = 0xffffffffu;
+  std::vector<double> saved(m * m);
+  auto pair_saved = [&](size_t a, size_t b) -> double& {
+    return a < b ? saved[a * m + b] : saved[b * m + a];
+  };
+  auto evaluate = [&](size_t a, size_t b) {
+    pair_saved(a, b) = bits[a] + bits[b] - pair_bits(a, b) - kReferenceBits;
+  };
+  std::vector<double> best(m, 0);
+  std::vector<uint32_t> partner(m, kNoPartner);
+  auto rescan = [&](size_t i) {
+    best[i] = 0;
+    partner[i] = kNoPartner;
+    for (size_t j = 0; j < m; ++j) {
+      if (j != i && alive[j] && pair_saved(i, j) > best[i]) {
+        best[i] = pair_saved(i, j);
+        partner[i] = static_cast<uint32_t>(j);
+      }
     }
   };
   for (size_t a = 0; a < m; ++a) {
-    for (size_t b = a + 1; b < m; ++b) consider(a, b);
+    for (size_t b = a + 1; b < m; ++b) evaluate(a, b);
   }
-  while (!merges.empty()) {
-    const Merge best = merges.top();
-    merges.pop();
-    const uint32_t a = best.a;
-    const uint32_t b = best.b;
-    if (!alive[a] || !alive[b] || version[a] != best.version_a || version[b] != best.version_b) {
-      continue;
+  for (size_t i = 0; i < m; ++i) rescan(i);
+  while (true) {
+    size_t first = m;
+    for (size_t i = 0; i < m; ++i) {
+      if (alive[i] && partner[i] != kNoPartner && (first == m || best[i] > best[first])) first = i;
     }
+    if (first == m) break;
+    const size_t a = std::min<size_t>(first, partner[first]);
+    const size_t b = std::max<size_t>(first, partner[first]);
     if (dense) {
       for (uint32_t s = 0; s < alphabet; ++s) flat[a * alphabet + s] += flat[b * alphabet + s];
       bits[a] = dense_bits(&flat[a * alphabet], nullptr, alphabet);
@@ -487,13 +498,23 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
       cluster[a] = std::move(both);
       cluster[b].clear();
     }
-    ++version[a];
-    alive[b] = false;
+    alive[b] = 0;
     for (uint32_t& g : group) {
       if (g == sizes[b].row) g = sizes[a].row;
     }
     for (size_t j = 0; j < m; ++j) {
-      if (alive[j] && j != a) consider(a, j);
+      if (alive[j] && j != a) evaluate(a, j);
+    }
+    rescan(a);
+    for (size_t j = 0; j < m; ++j) {
+      if (!alive[j] || j == a) continue;
+      if (partner[j] == a || partner[j] == b) {
+        rescan(j);
+      } else if (pair_saved(a, j) > best[j] ||
+                 (partner[j] != kNoPartner && pair_saved(a, j) == best[j] && a < partner[j])) {
+        best[j] = pair_saved(a, j);
+        partner[j] = static_cast<uint32_t>(a);
+      }
     }
   }
   return group;
