@@ -291,21 +291,23 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   constexpr ContextModel kJoint = {3, 1, 8};
   SymbolContext joint(kJoint);
   assert(joint.contexts() == 5 * 5 * 5 * 8 * 8);
-  std::vector<uint32_t> joint_counts(size_t{joint.contexts()} * kSymbolCount, 0);
-  std::vector<uint16_t> joint_of(n);  // per symbol: its joint context (< 8000)
-  std::vector<uint32_t> joint_order;  // the joint contexts that occur, by first symbol
-  {
-    std::vector<uint8_t> seen(joint.contexts(), 0);
-    for (uint32_t k = 0; k < n; ++k) {
-      const uint32_t j = joint.get(valences[k]);
-      joint_of[k] = static_cast<uint16_t>(j);
-      if (!seen[j]) {
-        seen[j] = 1;
-        joint_order.push_back(j);
-      }
-      ++joint_counts[size_t{j} * kSymbolCount + decoded_symbols[k]];
-      joint.update(decoded_symbols[k]);
+  // The joint contexts that occur get slots by first symbol (8,000 of them would be 160 KB of
+  // counts to clear for a mesh that uses a few hundred).
+  constexpr uint16_t kNoSlot = 0xffff;
+  std::vector<uint16_t> slot_of(joint.contexts(), kNoSlot);
+  std::vector<uint32_t> joint_order;   // per slot: its joint context
+  std::vector<uint32_t> slot_counts;   // per slot: kSymbolCount counts
+  std::vector<uint16_t> slot_of_symbol(n);
+  for (uint32_t k = 0; k < n; ++k) {
+    const uint32_t j = joint.get(valences[k]);
+    if (slot_of[j] == kNoSlot) {
+      slot_of[j] = static_cast<uint16_t>(joint_order.size());
+      joint_order.push_back(j);
+      slot_counts.resize(slot_counts.size() + kSymbolCount, 0);
     }
+    slot_of_symbol[k] = slot_of[j];
+    ++slot_counts[size_t{slot_of[j]} * kSymbolCount + decoded_symbols[k]];
+    joint.update(decoded_symbols[k]);
   }
   // A joint context's features: j = (((p1 * 5 + p2) * 5 + p3) * 8 + va) * 8 + len8.
   auto model_context = [](const SymbolContext& model, uint32_t j) {
@@ -322,14 +324,14 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     counts.assign(size_t{context.contexts()} * kSymbolCount, 0);
     seen.assign(context.contexts(), 0);
     order.clear();
-    for (uint32_t j : joint_order) {
-      const uint32_t c = model_context(context, j);
+    for (size_t slot = 0; slot < joint_order.size(); ++slot) {
+      const uint32_t c = model_context(context, joint_order[slot]);
       if (!seen[c]) {
         seen[c] = 1;
         order.push_back(c);
       }
       for (uint32_t s = 0; s < kSymbolCount; ++s) {
-        counts[size_t{c} * kSymbolCount + s] += joint_counts[size_t{j} * kSymbolCount + s];
+        counts[size_t{c} * kSymbolCount + s] += slot_counts[slot * kSymbolCount + s];
       }
     }
     SymbolPlan plan = plan_symbols(counts, order, context.contexts(), kSymbolCount);
@@ -339,11 +341,13 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     }
   }
   const SymbolContext context(kContextModels[best_model]);
-  std::vector<uint32_t> context_of_joint(joint.contexts());
-  for (uint32_t j : joint_order) context_of_joint[j] = model_context(context, j);
+  std::vector<uint32_t> context_of_slot(joint_order.size());
+  for (size_t slot = 0; slot < joint_order.size(); ++slot) {
+    context_of_slot[slot] = model_context(context, joint_order[slot]);
+  }
   SymbolEncoder coder(kSymbolCount, context.contexts());
   coder.reserve(n);
-  for (uint32_t k = 0; k < n; ++k) coder.put(context_of_joint[joint_of[k]], decoded_symbols[k]);
+  for (uint32_t k = 0; k < n; ++k) coder.put(context_of_slot[slot_of_symbol[k]], decoded_symbols[k]);
   coder.use_plan(std::move(best_plan));
   std::vector<uint8_t> best;
   coder.append_to(&best);
