@@ -392,8 +392,8 @@ double dense_bits(const uint32_t* a, const uint32_t* b, uint32_t alphabet) {
 /// whose many contexts see a few symbols each. Greedy agglomerative merging on the estimate
 /// above, best pair first (of equal pairs, the one of lower indices). Only rows with fewer than kMergeBelow symbols take part, the smallest
 /// first, at most kMergeCandidates of them and few enough that m^2 * min(alphabet, present
-/// symbols) stays under kMergeWork, which bounds the time; the pairs' savings take m^2 doubles
-/// (at most 2 MiB). Returns a group per row (the row whose counts the group's table uses); rows
+/// symbols) stays under kMergeWork, which bounds the time; the pairs' savings take m^2 / 2
+/// doubles (at most 1 MiB). Returns a group per row (the row whose counts the group's table uses); rows
 /// of a group share a table.
 constexpr size_t kMergeCandidates = 512;
 constexpr uint64_t kMergeBelow = 4096;
@@ -458,9 +458,10 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   // merged cluster's pairs and re-scans only the clusters whose partner it took.
   constexpr double kReferenceBits = 3;  // a context naming a table defined before it
   constexpr uint32_t kNoPartner = 0xffffffffu;
-  std::vector<double> saved(m * m);
+  std::vector<double> saved(m * (m - 1) / 2);  // pair (a < b) at a * (2m - a - 1) / 2 + b - a - 1
   auto pair_saved = [&](size_t a, size_t b) -> double& {
-    return a < b ? saved[a * m + b] : saved[b * m + a];
+    if (a > b) std::swap(a, b);
+    return saved[a * (2 * m - a - 1) / 2 + b - a - 1];
   };
   auto evaluate = [&](size_t a, size_t b) {
     pair_saved(a, b) = bits[a] + bits[b] - pair_bits(a, b) - kReferenceBits;
