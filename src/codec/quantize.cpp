@@ -92,17 +92,20 @@ void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* 
     // Counted in an open-addressing set of the values' bits (a sort of the probe took 3% of a
     // 10,000-triangle encode): repeats = probed - distinct.
     const size_t stride = std::max<size_t>(1, positions.size() / kLatticeProbe);
+    const size_t values = (positions.size() + stride - 1) / stride;  // < 2 * kLatticeProbe
     constexpr uint32_t kEmpty = 0xFFFFFFFFu;  // a NaN's bits: never a probed value
-    constexpr int kSetBits = 14;               // 16,384 slots for at most 2 * 4,096 values
-    std::vector<uint32_t> set(size_t{1} << kSetBits, kEmpty);
+    int set_bits = 4;                          // at least twice as many slots as values
+    while ((size_t{1} << set_bits) < 2 * values) ++set_bits;
+    std::vector<uint32_t> set(size_t{1} << set_bits, kEmpty);
+    const uint32_t slot_mask = (1u << set_bits) - 1;
     size_t probed = 0, repeats = 0;
     for (size_t i = 0; i < positions.size(); i += stride, ++probed) {
       const float x = positions[i].x + 0.0f;  // -0 as +0, which compares equal to it
       if (std::isnan(x)) continue;            // equal to nothing
       uint32_t key = 0;
       std::memcpy(&key, &x, sizeof key);
-      uint32_t slot = (key * 0x9E3779B1u) >> (32 - kSetBits);
-      while (set[slot] != kEmpty && set[slot] != key) slot = (slot + 1) & ((1u << kSetBits) - 1);
+      uint32_t slot = (key * 0x9E3779B1u) >> (32 - set_bits);
+      while (set[slot] != kEmpty && set[slot] != key) slot = (slot + 1) & slot_mask;
       repeats += set[slot] == key ? 1 : 0;
       set[slot] = key;
     }
