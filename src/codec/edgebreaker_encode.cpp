@@ -202,9 +202,9 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   if (core.vertex_ids() != vertex_ids) return internal("vertex id count");
 
   // The decoder id of each encoder vertex, read off the rebuilt table: decoded face k's corners are
-  // the traversal's tip, next(tip) and prev(tip), start faces after the symbols, first-encoded component
-  // first. Every id must stand for one encoder vertex, so that each decoded face has its encoded
-  // face's vertices.
+  // the traversal's tip, next(tip) and prev(tip), start faces after the symbols, first-encoded
+  // component first. Every id must stand for one encoder vertex, so that each decoded face has its
+  // encoded face's vertices.
   std::vector<uint32_t> encoded_of_id(vertex_ids, kNone);  // decoder id -> encoder vertex
   const VertexIndex* decoded_vertex = core.corner_vertex();
   for (uint32_t f = 0; f < core.faces(); ++f) {
@@ -295,8 +295,8 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   // counts to clear for a mesh that uses a few hundred).
   constexpr uint16_t kNoSlot = 0xffff;
   std::vector<uint16_t> slot_of(joint.contexts(), kNoSlot);
-  std::vector<uint32_t> joint_order;   // per slot: its joint context
-  std::vector<uint32_t> slot_counts;   // per slot: kSymbolCount counts
+  std::vector<uint32_t> joint_order;  // per slot: its joint context
+  std::vector<uint32_t> slot_counts;  // per slot: kSymbolCount counts
   std::vector<uint16_t> slot_of_symbol(n);
   for (uint32_t k = 0; k < n; ++k) {
     const uint32_t j = joint.get(valences[k]);
@@ -347,7 +347,9 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   }
   SymbolEncoder coder(kSymbolCount, context.contexts());
   coder.reserve(n);
-  for (uint32_t k = 0; k < n; ++k) coder.put(context_of_slot[slot_of_symbol[k]], decoded_symbols[k]);
+  for (uint32_t k = 0; k < n; ++k) {
+    coder.put(context_of_slot[slot_of_symbol[k]], decoded_symbols[k]);
+  }
   coder.use_plan(std::move(best_plan));
   std::vector<uint8_t> best;
   coder.append_to(&best);

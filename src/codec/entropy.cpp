@@ -390,11 +390,11 @@ double dense_bits(const uint32_t* a, const uint32_t* b, uint32_t alphabet) {
 /// Which table each used context (row of `counts`, `alphabet` wide) codes with: contexts share a
 /// table where the table bits saved outweigh the coding loss, which matters for small meshes
 /// whose many contexts see a few symbols each. Greedy agglomerative merging on the estimate
-/// above, best pair first (of equal pairs, the one of lower indices). Only rows with fewer than kMergeBelow symbols take part, the smallest
-/// first, at most kMergeCandidates of them and few enough that m^2 * min(alphabet, present
-/// symbols) stays under kMergeWork, which bounds the time; the pairs' savings take m^2 / 2
-/// doubles (at most 1 MiB). Returns a group per row (the row whose counts the group's table uses); rows
-/// of a group share a table.
+/// above, best pair first (of equal pairs, the one of lower indices). Only rows with fewer than
+/// kMergeBelow symbols take part, the smallest first, at most kMergeCandidates of them and few
+/// enough that m^2 * min(alphabet, present symbols) stays under kMergeWork, which bounds the time;
+/// the pairs' savings take m^2 / 2 doubles (at most 1 MiB). Returns a group per row (the row whose
+/// counts the group's table uses); rows of a group share a table.
 constexpr size_t kMergeCandidates = 512;
 constexpr uint64_t kMergeBelow = 4096;
 constexpr uint64_t kMergeWork = uint64_t{1} << 21;

@@ -427,8 +427,8 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   // codes it (its contexts come from vertices before): a quarter of the vertices, at least
   // kMeasuredVertices / 4 and at most kMeasuredVertices. Measuring every vertex took 2-4 passes
   // as long as the coding pass; the prefix codes the codec bench's 74 meshes to the same sizes.
-  const uint32_t measured =
-      std::min({vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
+  const uint32_t measured = std::min(
+      {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
   PredictionMode best = kAverageAll;
   bool best_lattice = false;
   double best_bits = 0;

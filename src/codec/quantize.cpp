@@ -94,7 +94,7 @@ void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* 
     const size_t stride = std::max<size_t>(1, positions.size() / kLatticeProbe);
     const size_t values = (positions.size() + stride - 1) / stride;  // < 2 * kLatticeProbe
     constexpr uint32_t kEmpty = 0xFFFFFFFFu;  // a NaN's bits: never a probed value
-    int set_bits = 4;                          // at least twice as many slots as values
+    int set_bits = 4;                         // at least twice as many slots as values
     while ((size_t{1} << set_bits) < 2 * values) ++set_bits;
     std::vector<uint32_t> set(size_t{1} << set_bits, kEmpty);
     const uint32_t slot_mask = (1u << set_bits) - 1;
