@@ -706,15 +706,15 @@ static_assert(SymbolEncoder::kContextShift == kProbBits,
 
 void SymbolEncoder::put_bits(uint32_t value, int count) {
   assert(count >= 0 && count <= 32 && !plan_.has_value());
-  if (count == 0) return;
   const uint64_t bits = value & ((uint64_t{1} << count) - 1);
-  const uint64_t end = bit_count_ + static_cast<uint64_t>(count);
-  bits_.resize(static_cast<size_t>((end + 7) / 8), 0);
-  const uint64_t shifted = bits << (bit_count_ & 7);  // at most 39 bits
-  for (size_t i = static_cast<size_t>(bit_count_ / 8), b = 0; i < bits_.size(); ++i, b += 8) {
-    bits_[i] |= static_cast<uint8_t>(shifted >> b);
+  pending_ |= bits << pending_bits_;  // pending_bits_ < 32, so the bits fit in 64
+  pending_bits_ += count;
+  bit_count_ += static_cast<uint64_t>(count);
+  if (pending_bits_ >= 32) {  // whole words out, little-endian (the stream is LSB-first)
+    for (int i = 0; i < 4; ++i) bits_.push_back(static_cast<uint8_t>(pending_ >> (8 * i)));
+    pending_ >>= 32;
+    pending_bits_ -= 32;
   }
-  bit_count_ = end;
 }
 
 SymbolPlan plan_symbols(const std::vector<uint32_t>& counts, const std::vector<uint32_t>& order,
@@ -804,6 +804,9 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
     out->insert(out->end(), p, end);
   }
   out->insert(out->end(), bits_.begin(), bits_.end());
+  for (int i = 0; i < (pending_bits_ + 7) / 8; ++i) {
+    out->push_back(static_cast<uint8_t>(pending_ >> (8 * i)));
+  }
 }
 
 // ---- decoder ---------------------------------------------------------------------------------
