@@ -21,6 +21,13 @@ Status invalid(const std::string& what) {
   return error(ErrorCode::kInvalidArgument, "encode", what);
 }
 
+/// Whether some vertex is referenced by no triangle (the indices checked to be in range).
+bool has_unreferenced_vertices(const Mesh& mesh) {
+  std::vector<uint8_t> used(mesh.positions.size(), 0);
+  for (uint32_t index : mesh.indices) used[index] = 1;
+  return std::find(used.begin(), used.end(), 0) != used.end();
+}
+
 }  // namespace
 
 Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& options,
@@ -45,20 +52,29 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
                    std::to_string(options.normal_bits));
   }
 
-  Mesh mesh;
-  mesh.positions = input.positions;
-  mesh.indices = input.indices;
   if (options.normals && input.normals.size() == input.positions.size()) {
     for (const Vec3& n : input.normals) {
       if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
         return invalid("the mesh has a NaN or infinite normal");
       }
     }
-    mesh.normals = input.normals;
   }
+
+  // The mesh as coded: the input itself, or a copy without its degenerate triangles and
+  // unreferenced vertices where it has any (most meshes have none).
   EncodeReport r;
-  r.degenerate_removed = remove_degenerate_triangles(mesh);
-  r.unreferenced_removed = remove_unreferenced_vertices(mesh);
+  Mesh cleaned;
+  const bool clean = count_degenerate_triangles(input) == 0 && !has_unreferenced_vertices(input);
+  if (!clean) {
+    cleaned.positions = input.positions;
+    cleaned.indices = input.indices;
+    if (options.normals && input.normals.size() == input.positions.size()) {
+      cleaned.normals = input.normals;
+    }
+    r.degenerate_removed = remove_degenerate_triangles(cleaned);
+    r.unreferenced_removed = remove_unreferenced_vertices(cleaned);
+  }
+  const Mesh& mesh = clean ? input : cleaned;
   OSTEON_ASSIGN_OR_RETURN(QuantizationGrid grid, choose_grid(mesh.positions, options));
   detail::QuantizedPositions q = detail::quantize(mesh.positions, grid);
 
@@ -75,10 +91,12 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry);
   std::vector<uint8_t> normals;
   if (options.normals) {
-    if (mesh.normals.empty()) mesh.normals = compute_vertex_normals(mesh);
+    const bool given = !mesh.normals.empty() && mesh.normals.size() == mesh.positions.size();
+    const std::vector<Vec3> computed = given ? std::vector<Vec3>() : compute_vertex_normals(mesh);
+    const std::vector<Vec3>& vertex_normals = given ? mesh.normals : computed;
     std::vector<Vec3> ordered_normals(vertex_count);
     for (uint32_t d = 0; d < vertex_count; ++d) {
-      ordered_normals[d] = mesh.normals[connectivity.vertex_order[d]];
+      ordered_normals[d] = vertex_normals[connectivity.vertex_order[d]];
     }
     detail::encode_normals(connectivity.decoded_indices, ordered, ordered_normals,
                            options.normal_bits, &normals);
