@@ -61,20 +61,28 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
       *hole = moved;
     }
   }
-  // The run of edges from -> to, as [first, last).
+  // The run of edges from -> to, as [first, last): in a vertex's bucket (a valence) by a scan,
+  // whose one unpredictable branch is its end, in a longer one by a binary search.
   auto run = [&](uint32_t from, uint32_t to) {
-    auto lo = edges.begin() + start[from];
-    auto hi = edges.begin() + start[from + 1];
-    auto first = std::lower_bound(lo, hi, Edge{to, 0});
-    auto last = first;
+    const Edge* first = edges.data() + start[from];
+    const Edge* const hi = edges.data() + start[from + 1];
+    if (hi - first > kInsertionSorted) {
+      first = std::lower_bound(first, hi, Edge{to, 0});
+    } else {
+      while (first != hi && first->to < to) ++first;
+    }
+    const Edge* last = first;
     while (last != hi && last->to == to) ++last;
     return std::make_pair(first, last);
   };
   for (uint32_t v = 0; v < vertex_count; ++v) {
-    for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
+    // Each undirected edge once, from its smaller end: the bucket's edges to larger vertices.
+    const uint32_t end = start[v + 1];
+    uint32_t i = start[v];
+    while (i < end && edges[i].to < v) ++i;
+    for (; i < end; ++i) {
       const Edge& e = edges[i];
-      if (e.to < v) continue;  // each undirected edge once, from its smaller end
-      if (i + 1 < start[v + 1] && edges[i + 1].to == e.to) continue;  // 2+ triangles u -> w
+      if (i + 1 < end && edges[i + 1].to == e.to) continue;  // 2+ triangles u -> w
       if (i > start[v] && edges[i - 1].to == e.to) continue;
       auto [first, last] = run(e.to, v);
       if (last - first != 1) continue;  // no twin, or 2+ triangles w -> u
