@@ -469,14 +469,22 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   std::vector<double> best(m, 0);
   std::vector<uint32_t> partner(m, kNoPartner);
   auto rescan = [&](size_t i) {
-    best[i] = 0;
-    partner[i] = kNoPartner;
-    for (size_t j = 0; j < m; ++j) {
-      if (j != i && alive[j] && pair_saved(i, j) > best[i]) {
-        best[i] = pair_saved(i, j);
-        partner[i] = static_cast<uint32_t>(j);
+    // A dead cluster counts as saving nothing (a select, not a branch), so only a new best
+    // branches; pairs (j, i) for j < i are a column of the triangle, (i, j) for j > i a row.
+    double most = 0;
+    uint32_t with = kNoPartner;
+    auto consider = [&](size_t j, double pair) {
+      const double value = alive[j] ? pair : 0.0;
+      if (value > most) {
+        most = value;
+        with = static_cast<uint32_t>(j);
       }
-    }
+    };
+    for (size_t j = 0; j < i; ++j) consider(j, saved[j * (2 * m - j - 1) / 2 + i - j - 1]);
+    const size_t row = i * (2 * m - i - 1) / 2 - i - 1;
+    for (size_t j = i + 1; j < m; ++j) consider(j, saved[row + j]);
+    best[i] = most;
+    partner[i] = with;
   };
   for (size_t a = 0; a < m; ++a) {
     for (size_t b = a + 1; b < m; ++b) evaluate(a, b);
