@@ -91,7 +91,7 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry);
   std::vector<uint8_t> normals;
   if (options.normals) {
-    const bool given = !mesh.normals.empty() && mesh.normals.size() == mesh.positions.size();
+    const bool given = mesh.normals.size() == mesh.positions.size();
     const std::vector<Vec3> computed = given ? std::vector<Vec3>() : compute_vertex_normals(mesh);
     const std::vector<Vec3>& vertex_normals = given ? mesh.normals : computed;
     std::vector<Vec3> ordered_normals(vertex_count);

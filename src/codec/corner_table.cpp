@@ -36,7 +36,9 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
     uint32_t corner;
     bool operator<(const Edge& e) const { return to < e.to || (to == e.to && corner < e.corner); }
   };
-  constexpr ptrdiff_t kInsertionSorted = 16;  // longer buckets (rare) go to std::sort
+  // A vertex's bucket holds about its valence: sorted by insertion and scanned. A longer one (a
+  // vertex of huge valence, rare) goes to std::sort and a binary search.
+  constexpr ptrdiff_t kShortBucket = 16;
   std::vector<Edge> edges;
   reserve_huge(&edges, corners);
   edges.resize(corners);
@@ -50,7 +52,7 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
   for (uint32_t v = 0; v < vertex_count; ++v) {
     Edge* const first = edges.data() + start[v];
     Edge* const last = edges.data() + start[v + 1];
-    if (last - first > kInsertionSorted) {
+    if (last - first > kShortBucket) {
       std::sort(first, last);
       continue;
     }
@@ -66,7 +68,7 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
   auto run = [&](uint32_t from, uint32_t to) {
     const Edge* first = edges.data() + start[from];
     const Edge* const hi = edges.data() + start[from + 1];
-    if (hi - first > kInsertionSorted) {
+    if (hi - first > kShortBucket) {
       first = std::lower_bound(first, hi, Edge{to, 0});
     } else {
       while (first != hi && first->to < to) ++first;

@@ -254,10 +254,6 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     if (slot != kNone && slot != ev) return internal("two input vertices decode as one");
     slot = ev;
   }
-  if (std::find(out.vertex_order.begin(), out.vertex_order.end(), kNone) !=
-      out.vertex_order.end()) {
-    return internal("an input vertex decodes as none");
-  }
 
   // The section (docs/FORMAT.md, "Connectivity section").
   std::vector<uint8_t>& bytes = out.bytes;

@@ -458,10 +458,10 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   // merged cluster's pairs and re-scans only the clusters whose partner it took.
   constexpr double kReferenceBits = 3;  // a context naming a table defined before it
   constexpr uint32_t kNoPartner = 0xffffffffu;
-  std::vector<double> saved(m * (m - 1) / 2);  // pair (a < b) at a * (2m - a - 1) / 2 + b - a - 1
+  std::vector<double> saved(m * (m - 1) / 2);
+  auto index = [m](size_t a, size_t b) { return a * (2 * m - a - 1) / 2 + b - a - 1; };  // a < b
   auto pair_saved = [&](size_t a, size_t b) -> double& {
-    if (a > b) std::swap(a, b);
-    return saved[a * (2 * m - a - 1) / 2 + b - a - 1];
+    return a < b ? saved[index(a, b)] : saved[index(b, a)];
   };
   auto evaluate = [&](size_t a, size_t b) {
     pair_saved(a, b) = bits[a] + bits[b] - pair_bits(a, b) - kReferenceBits;
@@ -480,9 +480,8 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
         with = static_cast<uint32_t>(j);
       }
     };
-    for (size_t j = 0; j < i; ++j) consider(j, saved[j * (2 * m - j - 1) / 2 + i - j - 1]);
-    const size_t row = i * (2 * m - i - 1) / 2 - i - 1;
-    for (size_t j = i + 1; j < m; ++j) consider(j, saved[row + j]);
+    for (size_t j = 0; j < i; ++j) consider(j, saved[index(j, i)]);
+    for (size_t j = i + 1; j < m; ++j) consider(j, saved[index(i, j)]);
     best[i] = most;
     partner[i] = with;
   };
