@@ -301,90 +301,77 @@ std::pair<WeightTable, ModelCode> choose_model(const uint32_t* counts, uint32_t 
 /// (symbol, count) pairs of the symbols that occur, by symbol.
 using SparseCounts = std::vector<std::pair<uint32_t, uint32_t>>;
 
-/// A rough size of a table plus the symbols it codes: their empirical entropy, about
-/// 2 + log2(count) bits per present symbol for presence and weight, and a few bits of header.
-/// Accumulated symbol by symbol: entropy = total * log2(total) - sum(count * log2(count)).
-/// c * log2(c) and log2(1 + c) for the small counts that table merging sees most, computed once
-/// with the same expressions as SizeEstimate's fallback, so the estimate is the same double
-/// either way: the merging search spent half its time in log2.
-struct LogTables {
+/// A rough size of a table plus the symbols it codes: their empirical entropy
+/// (total * log2(total) - sum(count * log2(count))), about 2 + log2(1 + count) bits per present
+/// symbol for presence and weight, and 8 bits of header. Merging two tables changes only the
+/// terms of the totals and of the symbols both have, so what a merge saves is computed from
+/// those alone (merge_saving).
+class LogTerms {
+ public:
+  LogTerms() {
+    entropy_[0] = 0;  // 0 * log2(0): no symbol, no term
+    symbol_[0] = 0;
+    for (uint32_t i = 1; i < kSize; ++i) {
+      entropy_[i] = i * std::log2(double(i));
+      symbol_[i] = 2 + std::log2(1 + double(i)) - entropy_[i];
+    }
+  }
+  /// c * log2(c), 0 for 0: looked up below kSize (the merging search spent half its time in
+  /// log2), computed above.
+  double entropy(uint64_t c) const {
+    return c < kSize ? entropy_[c] : double(c) * std::log2(double(c));
+  }
+  /// A present symbol's terms: its table bits, 2 + log2(1 + c), less c * log2(c); 0 for an
+  /// absent one (c = 0).
+  double symbol(uint64_t c) const {
+    return c < kSize ? symbol_[c] : 2 + std::log2(1 + double(c)) - double(c) * std::log2(double(c));
+  }
+
+ private:
   static constexpr uint32_t kSize = 4096;
-  std::array<double, kSize> count_log_count;
-  std::array<double, kSize> log_one_plus;
-  LogTables() {
-    for (uint32_t i = 0; i < kSize; ++i) {
-      const double c = i;
-      count_log_count[i] = c * std::log2(c);
-      log_one_plus[i] = std::log2(1 + c);
-    }
-  }
+  std::array<double, kSize> entropy_;
+  std::array<double, kSize> symbol_;
 };
 
-const LogTables& log_tables() {
-  static const LogTables logs;
-  return logs;
+const LogTerms& log_terms() {
+  static const LogTerms terms;
+  return terms;
 }
 
-struct SizeEstimate {
-  const LogTables& logs = log_tables();
-  uint64_t total = 0;
-  double count_log_count = 0;
-  double table_bits = 8;
-  void add(uint32_t count) {
-    total += count;
-    if (count < LogTables::kSize) {
-      count_log_count += logs.count_log_count[count];
-      table_bits += 2 + logs.log_one_plus[count];
-      return;
-    }
-    const double c = count;
-    count_log_count += c * std::log2(c);
-    table_bits += 2 + std::log2(1 + c);
+/// The estimated bits that coding clusters a and b with one table saves, table bits saved less
+/// coding bits lost, given their symbol totals, a's counts by symbol (`scattered`, alphabet wide)
+/// and b's pairs: only the symbols both have change their terms. A symbol a lacks adds exactly
+/// zero, so the loop has no branch on the data: it costs b's pairs and no mispredictions.
+double merge_saving(const LogTerms& terms, uint64_t total_a, const uint32_t* scattered,
+                    uint64_t total_b, const SparseCounts& b) {
+  double shared = 0;  // per shared symbol: its table bits saved, less the entropy lost
+  for (const auto& [symbol, count_b] : b) {
+    const uint32_t count_a = scattered[symbol];
+    shared += terms.symbol(count_a) + terms.symbol(count_b) - terms.symbol(uint64_t{count_a} + count_b);
   }
-  double bits() const {
-    const double t = static_cast<double>(total);
-    const double t_log_t =
-        total < LogTables::kSize ? logs.count_log_count[total] : t * std::log2(t);
-    return t_log_t - count_log_count + table_bits;
-  }
-};
-
-double estimated_bits(const SparseCounts& counts) {
-  SizeEstimate e;
-  for (const auto& [symbol, count] : counts) e.add(count);
-  return e.bits();
+  constexpr double kHeaderBits = 8;
+  return terms.entropy(total_a) + terms.entropy(total_b) - terms.entropy(total_a + total_b) +
+         kHeaderBits + shared;
 }
 
-/// estimated_bits() of the union of a and b, or the union itself when `out` is given.
-double merged_bits(const SparseCounts& a, const SparseCounts& b, SparseCounts* out = nullptr) {
-  SizeEstimate e;
+/// The union of a and b, counts added.
+SparseCounts merged_counts(const SparseCounts& a, const SparseCounts& b) {
+  SparseCounts out;
+  out.reserve(a.size() + b.size());
   size_t i = 0;
   size_t j = 0;
   while (i < a.size() || j < b.size()) {
-    std::pair<uint32_t, uint32_t> next;
     if (j == b.size() || (i < a.size() && a[i].first < b[j].first)) {
-      next = a[i++];
+      out.push_back(a[i++]);
     } else if (i == a.size() || b[j].first < a[i].first) {
-      next = b[j++];
+      out.push_back(b[j++]);
     } else {
-      next = {a[i].first, a[i].second + b[j].second};
+      out.emplace_back(a[i].first, a[i].second + b[j].second);
       ++i;
       ++j;
     }
-    e.add(next.second);
-    if (out != nullptr) out->push_back(next);
   }
-  return e.bits();
-}
-
-/// estimated_bits() of the sum of two dense rows of `alphabet` counts (`b` may be null).
-double dense_bits(const uint32_t* a, const uint32_t* b, uint32_t alphabet) {
-  SizeEstimate e;
-  for (uint32_t s = 0; s < alphabet; ++s) {
-    const uint32_t c = a[s] + (b != nullptr ? b[s] : 0);
-    if (c > 0) e.add(c);
-  }
-  return e.bits();
+  return out;
 }
 
 /// Which table each used context (row of `counts`, `alphabet` wide) codes with: contexts share a
@@ -398,7 +385,6 @@ double dense_bits(const uint32_t* a, const uint32_t* b, uint32_t alphabet) {
 constexpr size_t kMergeCandidates = 512;
 constexpr uint64_t kMergeBelow = 4096;
 constexpr uint64_t kMergeWork = uint64_t{1} << 21;
-constexpr uint32_t kDenseAlphabet = 8;
 
 std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32_t rows,
                                      uint32_t alphabet) {
@@ -428,30 +414,23 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   }
   if (m < 2) return group;
 
-  // Each cluster's counts: dense rows for small alphabets (the connectivity's five symbols), where
-  // a pass over the alphabet is cheaper than merging (symbol, count) lists; lists otherwise. Both
-  // add the present symbols' counts in symbol order, so the estimates are the same doubles.
-  const bool dense = alphabet <= kDenseAlphabet;
-  std::vector<SparseCounts> cluster(dense ? 0 : m);
-  std::vector<uint32_t> flat(dense ? m * alphabet : 0);
-  auto pair_bits = [&](size_t a, size_t b) {
-    return dense ? dense_bits(&flat[a * alphabet], &flat[b * alphabet], alphabet)
-                 : merged_bits(cluster[a], cluster[b]);
-  };
-  std::vector<double> bits(m);
+  // Each cluster's counts and symbol total. A cluster's pairs are evaluated with its counts
+  // scattered by symbol, each pair then costing the other cluster's symbols.
+  const LogTerms& terms = log_terms();
+  std::vector<SparseCounts> cluster(m);
+  std::vector<uint64_t> total(m);
   std::vector<uint8_t> alive(m, 1);
   for (size_t i = 0; i < m; ++i) {
     const uint32_t* row = &counts[size_t{sizes[i].row} * alphabet];
-    if (dense) {
-      std::copy(row, row + alphabet, &flat[i * alphabet]);
-      bits[i] = dense_bits(row, nullptr, alphabet);
-      continue;
-    }
     for (uint32_t s = 0; s < alphabet; ++s) {
       if (row[s] > 0) cluster[i].emplace_back(s, row[s]);
     }
-    bits[i] = estimated_bits(cluster[i]);
+    total[i] = sizes[i].symbols;
   }
+  std::vector<uint32_t> scattered(alphabet, 0);
+  auto scatter = [&](size_t a, bool on) {
+    for (const auto& [symbol, count] : cluster[a]) scattered[symbol] = on ? count : 0;
+  };
   // The bits each pair of clusters saves merged (symmetric: kept for a < b), and each cluster's
   // best partner: the most saved, the lower index among equals (none while nothing is saved).
   // Finding the best merge is then a pass over the clusters, and a merge re-evaluates the
@@ -463,8 +442,9 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
   auto pair_saved = [&](size_t a, size_t b) -> double& {
     return a < b ? saved[index(a, b)] : saved[index(b, a)];
   };
-  auto evaluate = [&](size_t a, size_t b) {
-    pair_saved(a, b) = bits[a] + bits[b] - pair_bits(a, b) - kReferenceBits;
+  auto evaluate = [&](size_t a, size_t b) {  // a's counts scattered
+    pair_saved(a, b) =
+        merge_saving(terms, total[a], scattered.data(), total[b], cluster[b]) - kReferenceBits;
   };
   std::vector<double> best(m, 0);
   std::vector<uint32_t> partner(m, kNoPartner);
@@ -486,7 +466,9 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
     partner[i] = with;
   };
   for (size_t a = 0; a < m; ++a) {
+    scatter(a, true);
     for (size_t b = a + 1; b < m; ++b) evaluate(a, b);
+    scatter(a, false);
   }
   for (size_t i = 0; i < m; ++i) rescan(i);
   while (true) {
@@ -497,22 +479,18 @@ std::vector<uint32_t> group_contexts(const std::vector<uint32_t>& counts, uint32
     if (first == m) break;
     const size_t a = std::min<size_t>(first, partner[first]);
     const size_t b = std::max<size_t>(first, partner[first]);
-    if (dense) {
-      for (uint32_t s = 0; s < alphabet; ++s) flat[a * alphabet + s] += flat[b * alphabet + s];
-      bits[a] = dense_bits(&flat[a * alphabet], nullptr, alphabet);
-    } else {
-      SparseCounts both;
-      bits[a] = merged_bits(cluster[a], cluster[b], &both);
-      cluster[a] = std::move(both);
-      cluster[b].clear();
-    }
+    cluster[a] = merged_counts(cluster[a], cluster[b]);
+    cluster[b] = SparseCounts();
+    total[a] += total[b];
     alive[b] = 0;
     for (uint32_t& g : group) {
       if (g == sizes[b].row) g = sizes[a].row;
     }
+    scatter(a, true);
     for (size_t j = 0; j < m; ++j) {
       if (alive[j] && j != a) evaluate(a, j);
     }
+    scatter(a, false);
     rescan(a);
     for (size_t j = 0; j < m; ++j) {
       if (!alive[j] || j == a) continue;
