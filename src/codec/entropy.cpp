@@ -689,19 +689,6 @@ SymbolEncoder::SymbolEncoder(uint32_t alphabet, uint32_t contexts)
 static_assert(SymbolEncoder::kContextShift == kProbBits,
               "queued symbols are context << 12 | symbol");
 
-void SymbolEncoder::put_bits(uint32_t value, int count) {
-  assert(count >= 0 && count <= 32 && !plan_.has_value());
-  const uint64_t bits = value & ((uint64_t{1} << count) - 1);
-  pending_ |= bits << pending_bits_;  // pending_bits_ < 32, so the bits fit in 64
-  pending_bits_ += count;
-  bit_count_ += static_cast<uint64_t>(count);
-  if (pending_bits_ >= 32) {  // whole words out, little-endian (the stream is LSB-first)
-    for (int i = 0; i < 4; ++i) bits_.push_back(static_cast<uint8_t>(pending_ >> (8 * i)));
-    pending_ >>= 32;
-    pending_bits_ -= 32;
-  }
-}
-
 SymbolPlan plan_symbols(const std::vector<uint32_t>& counts, const std::vector<uint32_t>& order,
                         uint32_t contexts, uint32_t alphabet) {
   assert(counts.size() == size_t{contexts} * alphabet);
@@ -788,7 +775,9 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
     ByteWriter(out).write_varint(static_cast<uint64_t>(end - p));
     out->insert(out->end(), p, end);
   }
-  out->insert(out->end(), bits_.begin(), bits_.end());
+  for (uint32_t word : words_) {  // little-endian: the stream is LSB-first
+    for (int i = 0; i < 4; ++i) out->push_back(static_cast<uint8_t>(word >> (8 * i)));
+  }
   for (int i = 0; i < (pending_bits_ + 7) / 8; ++i) {
     out->push_back(static_cast<uint8_t>(pending_ >> (8 * i)));
   }

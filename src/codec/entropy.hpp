@@ -70,7 +70,18 @@ class SymbolEncoder {
   }
   /// Queues `count` (0..32) raw bits of `value`, stored uncompressed in the bit stream. Not
   /// after use_plan() either.
-  void put_bits(uint32_t value, int count);
+  void put_bits(uint32_t value, int count) {
+    assert(count >= 0 && count <= 32 && !plan_.has_value());
+    const uint64_t bits = value & ((uint64_t{1} << count) - 1);
+    pending_ |= bits << pending_bits_;  // pending_bits_ < 32, so the bits fit in 64
+    pending_bits_ += count;
+    bit_count_ += static_cast<uint64_t>(count);
+    if (pending_bits_ >= 32) {  // a whole word out
+      words_.push_back(static_cast<uint32_t>(pending_));
+      pending_ >>= 32;
+      pending_bits_ -= 32;
+    }
+  }
 
   static constexpr uint32_t kContextShift = 12;  // a queued symbol is context << 12 | symbol
 
@@ -91,7 +102,7 @@ class SymbolEncoder {
   uint32_t alphabet_;
   uint32_t contexts_;
   std::vector<uint32_t> queued_;  // (context << 12 | symbol) per symbol, in put order
-  std::vector<uint8_t> bits_;     // raw bit stream, LSB-first, in whole 32-bit words
+  std::vector<uint32_t> words_;   // raw bit stream, LSB-first, its whole 32-bit words
   uint64_t pending_ = 0;          // the bits after bits_ (fewer than 32), lowest first
   int pending_bits_ = 0;
   uint64_t bit_count_ = 0;

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <memory>
+#include <optional>
+#include <vector>
 
 #include "codec/connectivity.hpp"
 #include "codec/entropy.hpp"
@@ -366,19 +368,31 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   return Status::ok_status();
 }
 
-// The encoder's prediction loop, for both codings as decode_loop reads them (lattice 0: plain
-// residuals in the context model's contexts; else a mask symbol, then lattice coding): hands
-// each (context, symbol, z, is_residual) to `sink` (the mask symbol has no raw bits).
-template <class Sink>
-void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, int64_t lattice, uint32_t vertex_count, Sink&& sink) {
-  assert(vertex_count <= q.xyz.size() / 3);
-  std::vector<uint32_t> symbols(vertex_count);
-  const int32_t* xyz = q.xyz.data();
+// Where a coding's encoder loop stands: the vertices before `next` (in decoding order) are
+// coded, and what the next vertex's prediction and contexts read of them is kept.
+struct LoopState {
+  uint32_t next = 0;
+  std::vector<uint32_t> symbols;  // per vertex before `next`: its packed symbols
   uint32_t previous[3] = {0, 0, 0};
   uint32_t previous_mask = 0;
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols.data(), mode);
+};
+
+// The encoder's prediction loop, for both codings as decode_loop reads them (lattice 0: plain
+// residuals in the context model's contexts; else a mask symbol, then lattice coding): codes the
+// vertices from state->next up to `end`, handing each (context, symbol, z, is_residual) to `sink`
+// (the mask symbol has no raw bits).
+template <class Sink>
+void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
+                 PredictionMode mode, int64_t lattice, uint32_t end, LoopState* state,
+                 Sink&& sink) {
+  assert(state->next <= end && end <= q.xyz.size() / 3);
+  state->symbols.resize(end);
+  uint32_t* const symbols = state->symbols.data();
+  const int32_t* xyz = q.xyz.data();
+  uint32_t* const previous = state->previous;
+  uint32_t previous_mask = state->previous_mask;
+  for (uint32_t v = state->next; v < end; ++v) {
+    const Prediction pred = predict(v, nt, xyz, symbols, mode);
     uint32_t symbol[3];
     if (lattice == 0) {
       for (int k = 0; k < 3; ++k) {
@@ -411,6 +425,8 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
     }
     symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
   }
+  state->next = end;
+  state->previous_mask = previous_mask;
 }
 
 }  // namespace
@@ -427,40 +443,51 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   // codes it (its contexts come from vertices before): a quarter of the vertices, at least
   // kMeasuredVertices / 4 and at most kMeasuredVertices. Measuring every vertex took 2-4 passes
   // as long as the coding pass; the prefix codes the codec bench's 74 meshes to the same sizes.
+  // Each measured coding queues its symbols as it goes, so the one kept resumes after its
+  // prefix instead of predicting it again.
   const uint32_t measured = std::min(
       {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
-  PredictionMode best = kAverageAll;
-  bool best_lattice = false;
-  double best_bits = 0;
+  struct Coding {
+    PredictionMode mode;
+    uint32_t lattice;
+    LoopState state;
+    SymbolEncoder enc;
+    double bits;
+  };
+  auto queue = [](SymbolEncoder& enc) {
+    return [&enc](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
+      enc.put(context, symbol);
+      if (residual) put_residual_bits(enc, symbol, z);
+    };
+  };
+  std::optional<Coding> best;
   for (int use_lattice = 0; use_lattice <= (lattice != 0 ? 1 : 0); ++use_lattice) {
     const uint32_t contexts = use_lattice ? kLatticeContexts : model.contexts();
     for (uint32_t m = 0; m < kModes; ++m) {
+      Coding trial{PredictionMode(m), use_lattice ? lattice : 0, LoopState(),
+                   SymbolEncoder(kResidualSymbols, contexts), 0};
+      trial.enc.reserve(size_t{measured} * (use_lattice ? 4 : 3));
       std::vector<uint32_t> histogram(size_t{contexts} * kResidualSymbols, 0);
       uint64_t raw_bits = 0;
-      auto count = [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
-        ++histogram[size_t{context} * kResidualSymbols + symbol];
-        if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
-      };
-      encode_loop(nt, q, model, PredictionMode(m), use_lattice ? lattice : 0, measured, count);
-      const double bits = estimated_bits(histogram, contexts, raw_bits);
-      if ((use_lattice == 0 && m == 0) || bits < best_bits) {
-        best = PredictionMode(m);
-        best_lattice = use_lattice != 0;
-        best_bits = bits;
-      }
+      auto put = queue(trial.enc);
+      encode_loop(nt, q, model, trial.mode, trial.lattice, measured, &trial.state,
+                  [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
+                    ++histogram[size_t{context} * kResidualSymbols + symbol];
+                    if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
+                    put(context, symbol, z, residual);
+                  });
+      trial.bits = estimated_bits(histogram, contexts, raw_bits);
+      if (!best.has_value() || trial.bits < best->bits) best = std::move(trial);
     }
   }
 
-  out->push_back(best);
+  out->push_back(best->mode);
   ByteWriter writer(out);
-  writer.write_varint(best_lattice ? lattice : 0);
-  SymbolEncoder enc(kResidualSymbols, best_lattice ? kLatticeContexts : model.contexts());
-  encode_loop(nt, q, model, best, best_lattice ? lattice : 0, vertex_count,
-              [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
-                enc.put(context, symbol);
-                if (residual) put_residual_bits(enc, symbol, z);
-              });
-  enc.append_to(out);
+  writer.write_varint(best->lattice);
+  best->enc.reserve(size_t{vertex_count - measured} * (best->lattice != 0 ? 4 : 3));
+  encode_loop(nt, q, model, best->mode, best->lattice, vertex_count, &best->state,
+              queue(best->enc));
+  best->enc.append_to(out);
 }
 
 OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
