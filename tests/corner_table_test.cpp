@@ -69,6 +69,57 @@ TEST(CornerTable, PairsOnlyTwoSidedEdges) {
   for (uint32_t c = 0; c < 6; ++c) EXPECT_FALSE(t.o(CornerIndex(c)).valid());
 }
 
+// The pairing rule by brute force: corner c's edge u -> w pairs with the corner of the one edge
+// w -> u when each direction occurs exactly once.
+std::vector<CornerIndex> paired_by_definition(const std::vector<uint32_t>& indices) {
+  const uint32_t corners = static_cast<uint32_t>(indices.size());
+  auto from = [&](uint32_t c) { return indices[next(CornerIndex(c)).value]; };
+  auto to = [&](uint32_t c) { return indices[prev(CornerIndex(c)).value]; };
+  std::vector<CornerIndex> out(corners, kNoCorner);
+  for (uint32_t c = 0; c < corners; ++c) {
+    uint32_t same = 0, reverse = 0, twin = 0;
+    for (uint32_t d = 0; d < corners; ++d) {
+      same += from(d) == from(c) && to(d) == to(c) ? 1 : 0;
+      if (from(d) == to(c) && to(d) == from(c)) {
+        ++reverse;
+        twin = d;
+      }
+    }
+    if (same == 1 && reverse == 1) out[c] = CornerIndex(twin);
+  }
+  return out;
+}
+
+TEST(CornerTable, PairsAsDefinedAtVerticesOfAnyDegree) {
+  // A vertex keeps up to eight outgoing edges in fixed slots and the rest in an overflow list:
+  // random triangles over few vertices give degrees far above eight, repeated and reversed
+  // edges, and every mix of slots and overflow.
+  std::mt19937 rng(7);
+  for (uint32_t vertices : {4u, 6u, 9u, 16u, 40u}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      std::vector<uint32_t> indices;
+      const uint32_t triangles = 1 + rng() % 60;
+      while (indices.size() < 3 * size_t{triangles}) {
+        const uint32_t a = rng() % vertices, b = rng() % vertices, c = rng() % vertices;
+        if (a == b || b == c || a == c) continue;
+        indices.insert(indices.end(), {a, b, c});
+      }
+      const CornerTable t = pair_half_edges(indices, vertices);
+      const std::vector<CornerIndex> expected = paired_by_definition(indices);
+      for (uint32_t c = 0; c < indices.size(); ++c) {
+        ASSERT_EQ(t.o(CornerIndex(c)), expected[c]) << "corner " << c << ", " << vertices << " vertices";
+      }
+    }
+  }
+  // A closed fan of 30 triangles: the apex and the base centre have degree 30.
+  std::vector<uint32_t> cone;
+  for (uint32_t i = 0; i < 30; ++i) {
+    const uint32_t a = 2 + i, b = 2 + (i + 1) % 30;
+    cone.insert(cone.end(), {0, a, b, 1, b, a});
+  }
+  expect_closes(cone, 32, 0, 0, 0);
+}
+
 TEST(CornerTable, SwingsWalkAroundAVertex) {
   Mesh m = make_icosphere(1);
   CornerTable t = pair_half_edges(m.indices, static_cast<uint32_t>(m.vertex_count()));

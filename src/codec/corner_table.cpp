@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cstring>
+#include <memory>
 #include <utility>
 
 #include "core/huge_pages.hpp"
@@ -15,6 +17,98 @@
 
 namespace osteon::detail {
 
+namespace {
+
+/// Every vertex's outgoing half-edges, for counting the edges from -> to in a fixed number of
+/// compares with no branch on the data: a vertex keeps its first kSlots edges in a row of one
+/// cache line, the vertices they run to and then their corners (unused slots run to kEmpty, which
+/// is no vertex); a vertex of higher degree (a pole, a fan, rare) keeps the rest in an overflow
+/// list sorted by vertex, searched only for it.
+class OutgoingEdges {
+ public:
+  static constexpr uint32_t kSlots = 8;
+
+  explicit OutgoingEdges(const CornerTable& table) : degree_(table.vertex_count, 0) {
+    // Rows start on a cache line: room for one more row to align the first. Each row is
+    // written once here (a value-initialised vector would clear it first).
+    const size_t words = size_t{table.vertex_count} * kRow + kRow;
+    storage_.reset(new uint32_t[words]);
+    advise_huge_pages(storage_.get(), words * sizeof(uint32_t));
+    const size_t misalignment = reinterpret_cast<uintptr_t>(storage_.get()) % (kRow * 4) / 4;
+    rows_ = storage_.get() + (misalignment == 0 ? 0 : kRow - misalignment);
+    for (uint32_t v = 0; v < table.vertex_count; ++v) {
+      std::fill(rows_ + size_t{v} * kRow, rows_ + size_t{v} * kRow + kSlots, kEmpty);
+      std::fill(rows_ + size_t{v} * kRow + kSlots, rows_ + size_t{v} * kRow + kRow, 0u);
+    }
+    const uint32_t corners = table.corner_count();
+    for (uint32_t c = 0; c < corners; ++c) {  // the edge opposite c runs V[n(c)] -> V[p(c)]
+      const uint32_t from = table.vertex[next(CornerIndex(c))].value;
+      const uint32_t to = table.vertex[prev(CornerIndex(c))].value;
+      const uint32_t k = degree_[from]++;
+      if (k < kSlots) [[likely]] {
+        rows_[size_t{from} * kRow + k] = to;
+        rows_[size_t{from} * kRow + kSlots + k] = c;
+      } else {
+        overflow_.push_back({from, to, c});
+      }
+    }
+    std::sort(overflow_.begin(), overflow_.end(),
+              [](const Edge& a, const Edge& b) { return a.from < b.from; });
+  }
+
+  /// How many half-edges run from -> to, and the corner opposite one of them (the only one when
+  /// the count is 1). The slots are compared four at a time (SSE2 or WebAssembly SIMD lanes, or
+  /// scalar code where there are none).
+  std::pair<uint32_t, uint32_t> find(uint32_t from, uint32_t to) const {
+    static_assert(kSlots == 8);
+    typedef uint32_t Lanes __attribute__((vector_size(16)));
+    const uint32_t* row = rows_ + size_t{from} * kRow;
+    Lanes to0, to1, corner0, corner1;
+    std::memcpy(&to0, row, sizeof(Lanes));
+    std::memcpy(&to1, row + 4, sizeof(Lanes));
+    std::memcpy(&corner0, row + 8, sizeof(Lanes));
+    std::memcpy(&corner1, row + 12, sizeof(Lanes));
+    const Lanes want = {to, to, to, to};
+    const Lanes match0 = (Lanes)(to0 == want);  // all ones where it matches
+    const Lanes match1 = (Lanes)(to1 == want);
+    // Lane sums: the negated count, and the matching corners ORed (no two lanes share a bit
+    // unless two match, when the corner is not used).
+    Lanes count = match0 + match1;
+    Lanes corner = (corner0 & match0) | (corner1 & match1);
+    count += __builtin_shufflevector(count, count, 2, 3, 0, 1);
+    corner |= __builtin_shufflevector(corner, corner, 2, 3, 0, 1);
+    count += __builtin_shufflevector(count, count, 1, 0, 3, 2);
+    corner |= __builtin_shufflevector(corner, corner, 1, 0, 3, 2);
+    const uint32_t lane_count = count[0], lane_corner = corner[0];
+    std::pair<uint32_t, uint32_t> found{0u - lane_count, lane_corner};
+    if (degree_[from] > kSlots) [[unlikely]] {
+      auto edge = std::lower_bound(overflow_.begin(), overflow_.end(), from,
+                                   [](const Edge& e, uint32_t v) { return e.from < v; });
+      for (; edge != overflow_.end() && edge->from == from; ++edge) {
+        if (edge->to != to) continue;
+        ++found.first;
+        found.second = edge->corner;
+      }
+    }
+    return found;
+  }
+
+ private:
+  static constexpr uint32_t kEmpty = 0xffffffffu;
+  static constexpr uint32_t kRow = 2 * kSlots;  // 64 bytes
+  struct Edge {
+    uint32_t from;
+    uint32_t to;
+    uint32_t corner;
+  };
+  std::unique_ptr<uint32_t[]> storage_;
+  uint32_t* rows_;  // in storage_, 64-byte aligned
+  std::vector<uint32_t> degree_;
+  std::vector<Edge> overflow_;
+};
+
+}  // namespace
+
 CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t vertex_count) {
   const uint32_t corners = static_cast<uint32_t>(indices.size());
   CornerTable table;
@@ -23,75 +117,24 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
   reserve_huge(&table.opposite.raw(), corners);
   table.vertex.resize(corners);
   for (uint32_t c = 0; c < corners; ++c) table.vertex[CornerIndex(c)] = VertexIndex(indices[c]);
-  table.opposite.assign(corners, kNoCorner);
+  table.opposite.resize(corners);
 
-  // The edge opposite corner c runs from = V[n(c)] to = V[p(c)]. Bucket the edges by `from`
-  // (counting sort), then sort each bucket by `to`, so both directions of {u, w} are found by a
-  // binary search in a bucket of about a vertex's valence.
-  std::vector<uint32_t> start(static_cast<size_t>(vertex_count) + 1, 0);
-  for (uint32_t c = 0; c < corners; ++c) ++start[table.vertex[next(CornerIndex(c))].value + 1];
-  for (uint32_t v = 0; v < vertex_count; ++v) start[v + 1] += start[v];
-  struct Edge {
-    uint32_t to;
-    uint32_t corner;
-    bool operator<(const Edge& e) const { return to < e.to || (to == e.to && corner < e.corner); }
-  };
-  // A vertex's bucket holds about its valence: sorted by insertion and scanned. A longer one (a
-  // vertex of huge valence, rare) goes to std::sort and a binary search.
-  constexpr ptrdiff_t kShortBucket = 16;
-  std::vector<Edge> edges;
-  reserve_huge(&edges, corners);
-  edges.resize(corners);
-  {
-    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-    for (uint32_t c = 0; c < corners; ++c) {
-      uint32_t from = table.vertex[next(CornerIndex(c))].value;
-      edges[fill[from]++] = {table.vertex[prev(CornerIndex(c))].value, c};
-    }
+  // Each corner c, whose edge runs u -> w, takes the corner d of the one edge w -> u if there
+  // is exactly one. Then c and d are paired when d took c back, which happens exactly when
+  // u -> w occurs once too. Every corner writes only its own opposite, with selects rather than
+  // branches; the second pass may clear a corner before a later corner reads it, which changes
+  // nothing, since a cleared corner never took the later one.
+  const OutgoingEdges edges(table);
+  for (uint32_t c = 0; c < corners; ++c) {
+    const uint32_t from = table.vertex[next(CornerIndex(c))].value;
+    const uint32_t to = table.vertex[prev(CornerIndex(c))].value;
+    const auto [reverse, twin] = edges.find(to, from);
+    table.opposite[CornerIndex(c)] = reverse == 1 ? CornerIndex(twin) : kNoCorner;
   }
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    Edge* const first = edges.data() + start[v];
-    Edge* const last = edges.data() + start[v + 1];
-    if (last - first > kShortBucket) {
-      std::sort(first, last);
-      continue;
-    }
-    for (Edge* e = first + 1; e < last; ++e) {  // a vertex's valence: inline insertion sort
-      const Edge moved = *e;
-      Edge* hole = e;
-      for (; hole > first && moved < hole[-1]; --hole) *hole = hole[-1];
-      *hole = moved;
-    }
-  }
-  // The run of edges from -> to, as [first, last): in a vertex's bucket (a valence) by a scan,
-  // whose one unpredictable branch is its end, in a longer one by a binary search.
-  auto run = [&](uint32_t from, uint32_t to) {
-    const Edge* first = edges.data() + start[from];
-    const Edge* const hi = edges.data() + start[from + 1];
-    if (hi - first > kShortBucket) {
-      first = std::lower_bound(first, hi, Edge{to, 0});
-    } else {
-      while (first != hi && first->to < to) ++first;
-    }
-    const Edge* last = first;
-    while (last != hi && last->to == to) ++last;
-    return std::make_pair(first, last);
-  };
-  for (uint32_t v = 0; v < vertex_count; ++v) {
-    // Each undirected edge once, from its smaller end: the bucket's edges to larger vertices.
-    const uint32_t end = start[v + 1];
-    uint32_t i = start[v];
-    while (i < end && edges[i].to < v) ++i;
-    for (; i < end; ++i) {
-      const Edge& e = edges[i];
-      if (i + 1 < end && edges[i + 1].to == e.to) continue;  // 2+ triangles u -> w
-      if (i > start[v] && edges[i - 1].to == e.to) continue;
-      auto [first, last] = run(e.to, v);
-      if (last - first != 1) continue;  // no twin, or 2+ triangles w -> u
-      CornerIndex a(e.corner), b(first->corner);
-      table.opposite[a] = b;
-      table.opposite[b] = a;
-    }
+  for (uint32_t c = 0; c < corners; ++c) {
+    const CornerIndex d = table.opposite[CornerIndex(c)];
+    const bool mutual = d.valid() && table.opposite[d] == CornerIndex(c);
+    table.opposite[CornerIndex(c)] = mutual ? d : kNoCorner;
   }
   return table;
 }

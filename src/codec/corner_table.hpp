@@ -129,7 +129,8 @@ struct CornerTable {
 /// edge opposite corner c is paired with the edge opposite d when exactly one triangle runs
 /// u -> v and exactly one runs v -> u; every other edge (a border, 3+ triangles on one edge, two
 /// triangles in the same direction) is left unpaired. V[c] = indices[c].
-/// Complexity: O(n log d) for n corners and largest vertex degree d.
+/// Complexity: O(n) for n corners, plus O(k log k) for the k edges beyond the eighth of vertices
+/// of higher degree.
 CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t vertex_count);
 
 /// A closed oriented manifold made from any triangle list, and how to undo it.
