@@ -19,6 +19,22 @@ namespace osteon::detail {
 
 namespace {
 
+/// Calls f(c, from, to) for every corner c, whose opposite edge runs from = V[n(c)] to = V[p(c)],
+/// face by face, so that n and p are constants rather than a remainder per corner.
+template <class F>
+void for_each_edge(const CornerTable& table, F&& f) {
+  const uint32_t faces = table.face_count();
+  for (uint32_t face = 0; face < faces; ++face) {
+    const uint32_t c = 3 * face;
+    const uint32_t v0 = table.vertex[CornerIndex(c)].value;
+    const uint32_t v1 = table.vertex[CornerIndex(c + 1)].value;
+    const uint32_t v2 = table.vertex[CornerIndex(c + 2)].value;
+    f(c, v1, v2);
+    f(c + 1, v2, v0);
+    f(c + 2, v0, v1);
+  }
+}
+
 /// Every vertex's outgoing half-edges, for counting the edges from -> to in a fixed number of
 /// compares with no branch on the data: a vertex keeps its first kSlots edges in a row of one
 /// cache line, the vertices they run to and then their corners (unused slots run to kEmpty, which
@@ -40,10 +56,7 @@ class OutgoingEdges {
       std::fill(rows_ + size_t{v} * kRow, rows_ + size_t{v} * kRow + kSlots, kEmpty);
       std::fill(rows_ + size_t{v} * kRow + kSlots, rows_ + size_t{v} * kRow + kRow, 0u);
     }
-    const uint32_t corners = table.corner_count();
-    for (uint32_t c = 0; c < corners; ++c) {  // the edge opposite c runs V[n(c)] -> V[p(c)]
-      const uint32_t from = table.vertex[next(CornerIndex(c))].value;
-      const uint32_t to = table.vertex[prev(CornerIndex(c))].value;
+    for_each_edge(table, [&](uint32_t c, uint32_t from, uint32_t to) {
       const uint32_t k = degree_[from]++;
       if (k < kSlots) [[likely]] {
         rows_[size_t{from} * kRow + k] = to;
@@ -51,7 +64,7 @@ class OutgoingEdges {
       } else {
         overflow_.push_back({from, to, c});
       }
-    }
+    });
     std::sort(overflow_.begin(), overflow_.end(),
               [](const Edge& a, const Edge& b) { return a.from < b.from; });
   }
@@ -125,16 +138,14 @@ CornerTable pair_half_edges(const std::vector<uint32_t>& indices, uint32_t verte
   // branches; the second pass may clear a corner before a later corner reads it, which changes
   // nothing, since a cleared corner never took the later one.
   const OutgoingEdges edges(table);
-  for (uint32_t c = 0; c < corners; ++c) {
-    const uint32_t from = table.vertex[next(CornerIndex(c))].value;
-    const uint32_t to = table.vertex[prev(CornerIndex(c))].value;
+  for_each_edge(table, [&](uint32_t c, uint32_t from, uint32_t to) {
     const auto [reverse, twin] = edges.find(to, from);
     table.opposite[CornerIndex(c)] = reverse == 1 ? CornerIndex(twin) : kNoCorner;
-  }
+  });
   for (uint32_t c = 0; c < corners; ++c) {
     const CornerIndex d = table.opposite[CornerIndex(c)];
-    const bool mutual = d.valid() && table.opposite[d] == CornerIndex(c);
-    table.opposite[CornerIndex(c)] = mutual ? d : kNoCorner;
+    const CornerIndex probe = d.valid() ? d : CornerIndex(c);  // O[c] = d is not c
+    table.opposite[CornerIndex(c)] = table.opposite[probe] == CornerIndex(c) ? d : kNoCorner;
   }
   return table;
 }
