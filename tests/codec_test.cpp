@@ -2,10 +2,12 @@
 #include "osteon/codec.hpp"
 
 #include <gtest/gtest.h>
+#include <meshoptimizer.h>
 
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <random>
 
 #include "fixtures.hpp"
@@ -234,10 +236,14 @@ void set_crc(std::vector<uint8_t>& bytes) {
 }
 
 TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
-  const std::vector<uint8_t> streams[2] = {small_stream(), small_lattice_stream()};
+  // Plain, lattice and tangent-plane geometry.
+  const std::vector<uint8_t> streams[3] = {
+      small_stream(), small_lattice_stream(),
+      test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
+                       "/tests/data/golden/pelvis_half_b14_v3.ostm")};
   std::mt19937 rng(7);
   for (int trial = 0; trial < 6000; ++trial) {
-    std::vector<uint8_t> copy = streams[trial % 2];
+    std::vector<uint8_t> copy = streams[trial % 3];
     int flips = 1 + trial % 4;
     for (int f = 0; f < flips; ++f) {
       size_t i = 60 + rng() % (copy.size() - 64);  // inside the sections
@@ -268,6 +274,37 @@ TEST(Codec, HeaderErrorsAreNamed) {
   EXPECT_NE(decode(huge.data(), huge.size()).status().message().find("implausible counts"),
             std::string::npos);
   EXPECT_NE(decode(bytes.data(), 10).status().message().find("too short"), std::string::npos);
+}
+
+// The geometry section's mode byte: tangent-plane prediction (bit 1) exists from version 3 on,
+// and only with plain residuals, not lattice coding.
+TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
+  auto geometry_mode = [](std::vector<uint8_t>& bytes) -> uint8_t& {
+    uint32_t connectivity = 0;
+    std::memcpy(&connectivity, bytes.data() + 48, 4);
+    return bytes[60 + connectivity];
+  };
+  std::vector<uint8_t> plane =
+      test::read_bytes(std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/pelvis_half_b14_v3.ostm");
+  ASSERT_GT(plane.size(), 64u);
+  ASSERT_EQ(geometry_mode(plane), 2);
+  ASSERT_TRUE(decode(plane.data(), plane.size()).ok());
+  std::vector<uint8_t> old = plane;
+  old[4] = 2;  // version 2 has no tangent plane
+  set_crc(old);
+  EXPECT_NE(decode(old.data(), old.size()).status().message().find("unknown prediction mode"),
+            std::string::npos);
+  std::vector<uint8_t> unknown = plane;
+  geometry_mode(unknown) = 4;
+  set_crc(unknown);
+  EXPECT_NE(decode(unknown.data(), unknown.size()).status().message().find("unknown prediction mode"),
+            std::string::npos);
+  std::vector<uint8_t> lattice = small_lattice_stream();
+  ASSERT_EQ(geometry_mode(lattice), 0);
+  geometry_mode(lattice) = 2;  // the tangent plane with lattice coding
+  set_crc(lattice);
+  EXPECT_NE(decode(lattice.data(), lattice.size()).status().message().find("bad lattice period"),
+            std::string::npos);
 }
 
 TEST(Codec, RealMeshesRoundTrip) {
@@ -375,31 +412,59 @@ struct Golden {
       part;  // a phantom part (detail 1, seed 1), or nullptr: make_lattice_sphere(2, 10, 1.3)
   int bits;
   bool normals;
+  // Below 1: the part simplified to this share of its triangles (meshopt_simplify), whose
+  // irregular triangles make the encoder choose tangent-plane prediction.
+  float kept = 1;
+  int detail = 1;  // the phantom's
 };
 constexpr Golden kGoldens[] = {
-    {"vertebra_l1_b12_v2.ostm", "vertebra_l1", 12, false},  // genus 1
-    {"pelvis_b14_v2.ostm", "pelvis", 14, false},            // 4 holes
-    {"scapula_l_b10_v2.ostm", "scapula_l", 10, false},      // non-manifold edges
-    {"femur_r_b16_normals_v2.ostm", "femur_r", 16, true},   // mirrored copy, normals sent
-    {"lattice_sphere_b14_v2.ostm", nullptr, 14, false},     // coded on a voxel lattice
+    {"vertebra_l1_b12_v3.ostm", "vertebra_l1", 12, false},  // genus 1
+    {"pelvis_b14_v3.ostm", "pelvis", 14, false},            // 4 holes
+    {"scapula_l_b10_v3.ostm", "scapula_l", 10, false},      // non-manifold edges
+    {"femur_r_b16_normals_v3.ostm", "femur_r", 16, true},   // mirrored copy, normals sent
+    {"lattice_sphere_b14_v3.ostm", nullptr, 14, false},     // coded on a voxel lattice
+    {"rib_l1_half_b14_v3.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
+    {"pelvis_half_b14_v3.ostm", "pelvis", 14, false, 0.5f},  // tangent plane, mean
 };
-// Version-1 streams of the first four, frozen before version 2.
-constexpr Golden kVersion1Goldens[] = {
-    {"vertebra_l1_b12.ostm", "vertebra_l1", 12, false},
-    {"pelvis_b14.ostm", "pelvis", 14, false},
-    {"scapula_l_b10.ostm", "scapula_l", 10, false},
-    {"femur_r_b16_normals.ostm", "femur_r", 16, true},
+// Streams of earlier versions, frozen before the next: version 1 of the first four, version 2
+// of all five.
+struct OlderGolden {
+  Golden golden;
+  uint8_t version;
+};
+constexpr OlderGolden kOlderGoldens[] = {
+    {{"vertebra_l1_b12.ostm", "vertebra_l1", 12, false}, 1},
+    {{"pelvis_b14.ostm", "pelvis", 14, false}, 1},
+    {{"scapula_l_b10.ostm", "scapula_l", 10, false}, 1},
+    {{"femur_r_b16_normals.ostm", "femur_r", 16, true}, 1},
+    {{"vertebra_l1_b12_v2.ostm", "vertebra_l1", 12, false}, 2},
+    {{"pelvis_b14_v2.ostm", "pelvis", 14, false}, 2},
+    {{"scapula_l_b10_v2.ostm", "scapula_l", 10, false}, 2},
+    {{"femur_r_b16_normals_v2.ostm", "femur_r", 16, true}, 2},
+    {{"lattice_sphere_b14_v2.ostm", nullptr, 14, false}, 2},
 };
 
 std::string golden_dir() {
   return std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden";
 }
 
-const Mesh* golden_mesh(const Phantom& phantom, const Golden& g) {
+const Mesh* golden_mesh(const Phantom& detail_1, const Golden& g) {
   static const Mesh lattice_sphere = make_lattice_sphere(2, 10.0f, 1.3f);
+  static const Phantom detail_2 = make_phantom({.seed = 1, .detail = 2});
+  static std::vector<std::unique_ptr<Mesh>> simplified;
   if (g.part == nullptr) return &lattice_sphere;
-  for (const Mesh& m : phantom.scene.parts)
-    if (m.name == g.part) return &m;
+  for (const Mesh& m : (g.detail == 2 ? detail_2 : detail_1).scene.parts) {
+    if (m.name != g.part) continue;
+    if (g.kept >= 1) return &m;
+    auto s = std::make_unique<Mesh>(m);
+    s->normals.clear();
+    const size_t target = static_cast<size_t>(double(m.indices.size()) * g.kept) / 3 * 3;
+    s->indices.resize(meshopt_simplify(s->indices.data(), m.indices.data(), m.indices.size(),
+                                       &m.positions[0].x, m.positions.size(), sizeof(Vec3),
+                                       target, 1.0f, 0, nullptr));
+    simplified.push_back(std::move(s));
+    return simplified.back().get();
+  }
   return nullptr;
 }
 
@@ -427,21 +492,28 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
     Result<Mesh> decoded = decode(frozen.data(), frozen.size(), path);
     ASSERT_TRUE(decoded.ok()) << decoded.status().message();
     EXPECT_EQ(decoded->triangle_count(), part->triangle_count());
+    EncodeReport report;
+    ASSERT_TRUE(encode(*part, options, &report).ok());
+    EXPECT_EQ(report.prediction_mode >= 2, g.kept < 1) << "tangent-plane prediction";
+    if (g.detail == 2) {
+      EXPECT_EQ(report.prediction_mode, 3) << "the first parallelogram only";
+    }
   }
 }
 
-// The decoder keeps reading version 1, to the very mesh the version-2 stream of the same part
-// decodes to (these parts have no lattice, so both versions share the grid and the predictor).
-TEST(CodecGolden, DecoderStillReadsVersion1Streams) {
+// The decoder keeps reading versions 1 and 2, to the very mesh the current stream of the same
+// part decodes to (the versions share the grid; they differ in how they predict and code it).
+TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});
-  for (const Golden& g : kVersion1Goldens) {
+  for (const OlderGolden& older : kOlderGoldens) {
+    const Golden& g = older.golden;
     SCOPED_TRACE(g.file);
     const Mesh* part = golden_mesh(phantom, g);
     ASSERT_NE(part, nullptr);
     std::string path = golden_dir() + "/" + g.file;
     std::vector<uint8_t> frozen = test::read_bytes(path);
     ASSERT_GT(frozen.size(), 4u);
-    EXPECT_EQ(frozen[4], 1);
+    EXPECT_EQ(frozen[4], older.version);
     Result<Mesh> old_decoded = decode(frozen.data(), frozen.size(), path);
     ASSERT_TRUE(old_decoded.ok()) << old_decoded.status().message();
     EncodeOptions options;

@@ -57,6 +57,9 @@ struct EncodeReport {
   double connectivity_bits_per_vertex = 0;
   double geometry_bits_per_vertex = 0;
   double max_error = 0;  ///< largest per-coordinate |decoded - input| over all vertices
+  /// The geometry section's prediction mode (docs/FORMAT.md): bit 0 set for the first
+  /// parallelogram only (else the mean of all), bit 1 for tangent-plane prediction.
+  uint8_t prediction_mode = 0;
   double grid_step = 0;
   QuantizationGrid grid;
 };

@@ -128,6 +128,7 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     r.bytes = out.size();
     r.connectivity_bytes = connectivity.bytes.size();
     r.geometry_bytes = geometry.size();
+    r.prediction_mode = geometry.empty() ? 0 : geometry[0];
     r.normal_bytes = normals.size();
     r.vertices = vertex_count;
     r.triangles = mesh.triangle_count();

@@ -6,7 +6,6 @@
 #include <bit>
 #include <cassert>
 #include <cmath>
-#include <queue>
 #include <string>
 #include <utility>
 #include <vector>
@@ -143,7 +142,7 @@ struct WeightTable {
 /// (w * log(f / (f-1)) ~ w / (f - 1/2)) or giving to the one that gains most (w / (f + 1/2)).
 /// Integer arithmetic only, so the encoder and every decoder (native or WebAssembly) compute the
 /// same table. A single symbol gets all kProbScale slots and then costs no bits.
-/// O(n log n) for n weights.
+/// O(n * d) for n weights whose rounded shares miss kProbScale by d (both at most 68 here).
 OSTEON_COLD_FUNCTION std::vector<uint32_t> normalize(const std::vector<uint32_t>& weights) {
   const size_t n = weights.size();
   assert(n >= 1 && n <= kProbScale);
@@ -157,35 +156,34 @@ OSTEON_COLD_FUNCTION std::vector<uint32_t> normalize(const std::vector<uint32_t>
         std::max<uint64_t>(1, (uint64_t{weights[i]} * kProbScale + total / 2) / total));
     sum += freq[i];
   }
-  // Products stay below 2^32 * 2^14: no overflow. Ties go to the lower symbol.
+  // Products stay below 2^32 * 2^14: no overflow. Ties go to the lower symbol. Each slot moved
+  // is found by a scan: alphabets have at most 68 symbols, and a heap costs the WebAssembly
+  // decoder's download more than the scans cost its time.
   if (sum > kProbScale) {
-    auto costs_more = [&](size_t a, size_t b) {  // heap top = cheapest slot to take
+    auto costs_more = [&](size_t a, size_t b) {  // taking a slot from a loses more than from b
       const uint64_t lhs = uint64_t{weights[a]} * (2 * freq[b] - 1);
       const uint64_t rhs = uint64_t{weights[b]} * (2 * freq[a] - 1);
       return lhs != rhs ? lhs > rhs : a > b;
     };
-    std::priority_queue<size_t, std::vector<size_t>, decltype(costs_more)> heap(costs_more);
-    for (size_t i = 0; i < n; ++i) {
-      if (freq[i] > 1) heap.push(i);
-    }
     for (; sum > kProbScale; --sum) {  // n <= kProbScale: some freq > 1 remains
-      const size_t i = heap.top();
-      heap.pop();
-      if (--freq[i] > 1) heap.push(i);
+      size_t cheapest = n;
+      for (size_t i = 0; i < n; ++i) {
+        if (freq[i] > 1 && (cheapest == n || costs_more(cheapest, i))) cheapest = i;
+      }
+      --freq[cheapest];
     }
-  } else if (sum < kProbScale) {
-    auto gains_less = [&](size_t a, size_t b) {  // heap top = most useful slot to give
+  } else {
+    auto gains_less = [&](size_t a, size_t b) {  // a slot given to a gains less than to b
       const uint64_t lhs = uint64_t{weights[a]} * (2 * freq[b] + 1);
       const uint64_t rhs = uint64_t{weights[b]} * (2 * freq[a] + 1);
       return lhs != rhs ? lhs < rhs : a > b;
     };
-    std::priority_queue<size_t, std::vector<size_t>, decltype(gains_less)> heap(gains_less);
-    for (size_t i = 0; i < n; ++i) heap.push(i);
     for (; sum < kProbScale; ++sum) {
-      const size_t i = heap.top();
-      heap.pop();
-      ++freq[i];
-      heap.push(i);
+      size_t most = 0;
+      for (size_t i = 1; i < n; ++i) {
+        if (gains_less(most, i)) most = i;
+      }
+      ++freq[most];
     }
   }
   return freq;

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <memory>
 #include <optional>
@@ -252,13 +254,18 @@ constexpr uint32_t kPlaneBase = kMaskContexts;
 constexpr uint32_t kFreeBase = kPlaneBase + kPlaneContexts;
 constexpr uint32_t kLatticeContexts = kFreeBase + kFreeContexts;
 
-/// The axis along which the normal of v's neighbouring triangles (n, p, o) is largest (ties to
-/// the lower axis), or kNoAxis when v has no parallelogram or their normal is zero. Wrapping
-/// 64-bit arithmetic: the same on both sides whatever the coordinates (corrupt streams too).
-inline uint32_t dominant_axis(uint32_t v, const NewestTriangles& nt, const int32_t* xyz) {
+/// The normal of v's neighbouring triangles (n, p, o), summed: (n - o) x (p - o) over v's
+/// parallelograms (zero when it has none). Wrapping 64-bit arithmetic: the same on both sides
+/// whatever the coordinates (corrupt streams too), exact while they stay below 2^30.
+struct Normal {
+  uint64_t xyz[3] = {0, 0, 0};
+  uint32_t axis = kNoAxis;  // the largest component's axis (ties to the lower), kNoAxis for zero
+};
+
+inline Normal parallelogram_normal(uint32_t v, const NewestTriangles& nt, const int32_t* xyz) {
   const NewestTriangle* e = nt.entries.data() + nt.first[v];
   const NewestTriangle* const end = nt.entries.data() + nt.first[v + 1];
-  uint64_t normal[3] = {0, 0, 0};
+  Normal normal;
   for (; e != end; ++e) {
     if (e->o == kNoVertexId) continue;
     const int32_t* n = xyz + 3 * size_t{e->n};
@@ -269,21 +276,46 @@ inline uint32_t dominant_axis(uint32_t v, const NewestTriangles& nt, const int32
       a[k] = uint64_t(int64_t{n[k]} - o[k]);
       b[k] = uint64_t(int64_t{p[k]} - o[k]);
     }
-    normal[0] += a[1] * b[2] - a[2] * b[1];
-    normal[1] += a[2] * b[0] - a[0] * b[2];
-    normal[2] += a[0] * b[1] - a[1] * b[0];
+    normal.xyz[0] += a[1] * b[2] - a[2] * b[1];
+    normal.xyz[1] += a[2] * b[0] - a[0] * b[2];
+    normal.xyz[2] += a[0] * b[1] - a[1] * b[0];
   }
   uint64_t size[3];
-  for (int k = 0; k < 3; ++k) size[k] = normal[k] >> 63 ? 0 - normal[k] : normal[k];
-  if ((size[0] | size[1] | size[2]) == 0) return kNoAxis;
-  uint32_t axis = size[1] > size[0] ? 1 : 0;
-  return size[2] > size[axis] ? 2 : axis;
+  for (int k = 0; k < 3; ++k) size[k] = normal.xyz[k] >> 63 ? 0 - normal.xyz[k] : normal.xyz[k];
+  if ((size[0] | size[1] | size[2]) != 0) {
+    const uint32_t axis = size[1] > size[0] ? 1 : 0;
+    normal.axis = size[2] > size[axis] ? 2 : axis;
+  }
+  return normal;
 }
 
 /// floor(a / b) for b >= 1.
 inline int64_t floor_div(int64_t a, int64_t b) {
   const int64_t d = a / b;
   return d - ((a % b != 0) & (a < 0));
+}
+
+/// Tangent-plane prediction (stream version 3): the prediction `pred` of the normal's largest
+/// axis d moved onto the plane through the prediction with that normal, given the residuals r
+/// of the other two axes a and b (decoded first, or read beside it):
+///   pred - round((N[a] r[a] + N[b] r[b]) / N[d]), clamped to int32.
+/// The normal is first shifted right until |N[d]| < 2^24, so that with |r| < 2^34 every product
+/// and sum fits 64 bits. N[d] != 0 (the normal has an axis).
+inline int64_t on_tangent_plane(const Normal& normal, int64_t pred, const int64_t r[3]) {
+  const uint32_t d = normal.axis;
+  const uint32_t a = d == 0 ? 1 : 0;
+  const uint32_t b = d == 2 ? 1 : 2;
+  const uint64_t size = normal.xyz[d] >> 63 ? 0 - normal.xyz[d] : normal.xyz[d];
+  const int shift = std::max(0, static_cast<int>(std::bit_width(size)) - 24);
+  int64_t den = static_cast<int64_t>(normal.xyz[d]) >> shift;
+  int64_t num = (static_cast<int64_t>(normal.xyz[a]) >> shift) * r[a] +
+                (static_cast<int64_t>(normal.xyz[b]) >> shift) * r[b];
+  if (den < 0) {
+    den = -den;
+    num = -num;
+  }
+  const int64_t moved = pred - floor_div(2 * num + den, 2 * den);
+  return std::clamp<int64_t>(moved, INT32_MIN, INT32_MAX);
 }
 
 /// The plane index nearest the prediction: floor((pred + floor(L / 2)) / L).
@@ -305,8 +337,8 @@ inline uint32_t free_context(PredictionKind kind, uint32_t local) {
 // WebAssembly decoder holds one copy of the prediction and the symbol reads: the lattice branches
 // go the same way for every vertex of a stream.
 OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
-                                   PredictionMode mode, int64_t lattice, SymbolDecoder& dec,
-                                   ByteReader& in, const std::string& source,
+                                   PredictionMode mode, bool tangent_plane, int64_t lattice,
+                                   SymbolDecoder& dec, ByteReader& in, const std::string& source,
                                    QuantizedPositions* q) {
   const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
   // Written before being read, so not cleared.
@@ -317,11 +349,14 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   uint32_t mask = 0;  // lattice coding: the axes on lattice planes
   for (uint32_t v = 0; v < vertex_count; ++v) {
     const Prediction pred = predict(v, nt, xyz, symbols.get(), mode);
+    // Lattice coding and the tangent plane read the normal; never both (decode_geometry checks).
+    Normal normal;
+    if (lattice != 0 || tangent_plane) normal = parallelogram_normal(v, nt, xyz);
     uint32_t context[3];
     if (lattice == 0) [[likely]] {
       for (int k = 0; k < 3; ++k) context[k] = model.context(pred.kind, pred.local[k], previous[k]);
     } else {
-      const uint32_t dominant = dominant_axis(v, nt, xyz);
+      const uint32_t dominant = normal.axis;
       mask = dec.get(cursor, mask_context(dominant, mask & 7));
       for (int k = 0; k < 3; ++k) {
         context[k] = ((mask >> k) & 1)
@@ -348,12 +383,20 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
                                : dec.get_bits(cursor, static_cast<int>(bits[k]));
       }
     }
+    int64_t r[3];
+    int64_t base[3];
+    for (int k = 0; k < 3; ++k) {
+      r[k] = unzigzag(kLeadingBits[symbol[k]] | rest[k]);
+      base[k] = pred.xyz[k];
+    }
+    if (normal.axis != kNoAxis && tangent_plane) {
+      base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
+    }
     bool in_range = mask < 8;
     for (int k = 0; k < 3; ++k) {
-      const int64_t r = unzigzag(kLeadingBits[symbol[k]] | rest[k]);
-      int64_t value = pred.xyz[k] + r;
+      int64_t value = base[k] + r[k];
       // On a lattice plane: |r| < 2^34 and lattice <= 2^24, so no overflow before the check.
-      if ((mask >> k) & 1) value = (nearest_plane(pred.xyz[k], lattice) + r) * lattice;
+      if ((mask >> k) & 1) value = (nearest_plane(pred.xyz[k], lattice) + r[k]) * lattice;
       in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
       xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
       previous[k] = symbol[k];
@@ -383,8 +426,8 @@ struct LoopState {
 // (the mask symbol has no raw bits).
 template <class Sink>
 void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, int64_t lattice, uint32_t end, LoopState* state,
-                 Sink&& sink) {
+                 PredictionMode mode, bool tangent_plane, int64_t lattice, uint32_t end,
+                 LoopState* state, Sink&& sink) {
   assert(state->next <= end && end <= q.xyz.size() / 3);
   state->symbols.resize(end);
   uint32_t* const symbols = state->symbols.data();
@@ -395,14 +438,21 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
     const Prediction pred = predict(v, nt, xyz, symbols, mode);
     uint32_t symbol[3];
     if (lattice == 0) {
+      int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
+      const Normal normal = tangent_plane ? parallelogram_normal(v, nt, xyz) : Normal();
+      if (normal.axis != kNoAxis) {
+        int64_t r[3];
+        for (int k = 0; k < 3; ++k) r[k] = int64_t{xyz[3 * size_t{v} + k]} - base[k];
+        base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
+      }
       for (int k = 0; k < 3; ++k) {
-        const uint64_t z = zigzag(int64_t{xyz[3 * size_t{v} + k]} - pred.xyz[k]);
+        const uint64_t z = zigzag(int64_t{xyz[3 * size_t{v} + k]} - base[k]);
         symbol[k] = residual_symbol(z);
         sink(model.context(pred.kind, pred.local[k], previous[k]), symbol[k], z, true);
         previous[k] = symbol[k];
       }
     } else {
-      const uint32_t dominant = dominant_axis(v, nt, xyz);
+      const uint32_t dominant = parallelogram_normal(v, nt, xyz).axis;
       uint32_t mask = 0;
       for (int k = 0; k < 3; ++k) {
         mask |= (xyz[3 * size_t{v} + k] % lattice == 0 ? 1u : 0u) << k;
@@ -448,7 +498,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   const uint32_t measured = std::min(
       {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
   struct Coding {
-    PredictionMode mode;
+    uint8_t mode;  // the mode byte: PredictionMode + kModes for the tangent plane
     uint32_t lattice;
     LoopState state;
     SymbolEncoder enc;
@@ -460,22 +510,26 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
       if (residual) put_residual_bits(enc, symbol, z);
     };
   };
+  auto run = [&](Coding& coding, uint32_t end, auto&& sink) {
+    encode_loop(nt, q, model, PredictionMode(coding.mode % kModes), coding.mode >= kModes,
+                coding.lattice, end, &coding.state, sink);
+  };
   std::optional<Coding> best;
   for (int use_lattice = 0; use_lattice <= (lattice != 0 ? 1 : 0); ++use_lattice) {
     const uint32_t contexts = use_lattice ? kLatticeContexts : model.contexts();
-    for (uint32_t m = 0; m < kModes; ++m) {
-      Coding trial{PredictionMode(m), use_lattice ? lattice : 0, LoopState(),
+    // The tangent plane is for plain residuals: lattice coding has its own use of the normal.
+    for (uint32_t m = 0; m < (use_lattice ? kModes : 2 * kModes); ++m) {
+      Coding trial{static_cast<uint8_t>(m), use_lattice ? lattice : 0, LoopState(),
                    SymbolEncoder(kResidualSymbols, contexts), 0};
       trial.enc.reserve(size_t{measured} * (use_lattice ? 4 : 3));
       std::vector<uint32_t> histogram(size_t{contexts} * kResidualSymbols, 0);
       uint64_t raw_bits = 0;
       auto put = queue(trial.enc);
-      encode_loop(nt, q, model, trial.mode, trial.lattice, measured, &trial.state,
-                  [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
-                    ++histogram[size_t{context} * kResidualSymbols + symbol];
-                    if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
-                    put(context, symbol, z, residual);
-                  });
+      run(trial, measured, [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
+        ++histogram[size_t{context} * kResidualSymbols + symbol];
+        if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
+        put(context, symbol, z, residual);
+      });
       trial.bits = estimated_bits(histogram, contexts, raw_bits);
       if (!best.has_value() || trial.bits < best->bits) best = std::move(trial);
     }
@@ -485,8 +539,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   ByteWriter writer(out);
   writer.write_varint(best->lattice);
   best->enc.reserve(size_t{vertex_count - measured} * (best->lattice != 0 ? 4 : 3));
-  encode_loop(nt, q, model, best->mode, best->lattice, vertex_count, &best->state,
-              queue(best->enc));
+  run(*best, vertex_count, queue(best->enc));
   best->enc.append_to(out);
 }
 
@@ -500,12 +553,13 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
                  message("geometry: the connectivity does not have % vertices", {vertex_count}));
   }
   uint8_t mode = 0;
-  if (!in.read_le(&mode) || mode >= kModes) {
+  if (!in.read_le(&mode) || mode >= (version >= 3 ? 2 * kModes : kModes)) {
     return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
                  at_byte(in.offset()));
   }
   uint64_t lattice = 0;  // version 2: the lattice period, 0 for none
-  if (version >= 2 && (!in.read_varint(&lattice) || lattice == 1 || lattice > kMaxLattice)) {
+  if (version >= 2 && (!in.read_varint(&lattice) || lattice == 1 || lattice > kMaxLattice ||
+                       (lattice != 0 && mode >= kModes))) {
     return error(ErrorCode::kInvalidData, source, "geometry: bad lattice period",
                  at_byte(in.offset()));
   }
@@ -524,7 +578,8 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
   OSTEON_RETURN_IF_ERROR(
-      decode_loop(nt, model, PredictionMode(mode), int64_t(lattice), dec, in, source, &q));
+      decode_loop(nt, model, PredictionMode(mode % kModes), mode >= kModes, int64_t(lattice), dec,
+                  in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
   return q;
 }
