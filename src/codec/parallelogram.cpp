@@ -129,10 +129,34 @@ struct Prediction {
   int64_t xyz[3];
 };
 
+/// Per axis, the rounded mean of the symbols of the 2 * entries neighbours of v's entries
+/// [begin, end), given `lanes`, their packed symbols summed (Prediction::local).
+inline void mean_symbols(const NewestTriangle* begin, const NewestTriangle* end, uint64_t lanes,
+                         const uint32_t* symbols, uint32_t local[3]) {
+  const uint32_t entries = static_cast<uint32_t>(end - begin);
+  if (entries <= kMaxSmallDivisor / 2) [[likely]] {
+    for (int k = 0; k < 3; ++k) {
+      local[k] = ((lane(lanes, k) + entries) * kReciprocal[2 * entries]) >> 16;
+    }
+  } else {
+    // Lanes may overflow into each other beyond 16 entries: add them up again, apart.
+    uint32_t sums[3] = {0, 0, 0};
+    for (const NewestTriangle* f = begin; f != end; ++f) {
+      for (int k = 0; k < 3; ++k) sums[k] += lane(symbols[f->n], k) + lane(symbols[f->p], k);
+    }
+    for (int k = 0; k < 3; ++k) local[k] = (sums[k] + entries) / (2 * entries);
+  }
+}
+
 // The prediction of vertex v from the vertices before it; the encoder and the decoder call this
-// with the same records for vertices < v, so they agree bit for bit.
+// with the same records for vertices < v, so they agree bit for bit. kTwoCodings (the encoder
+// measuring two codings of the same prediction at once): also the local activity of a second
+// coding's symbols, into other_local.
+template <bool kTwoCodings = false>
 inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
-                          const uint32_t* symbols, PredictionMode mode) {
+                          const uint32_t* symbols, PredictionMode mode,
+                          const uint32_t* other_symbols = nullptr,
+                          uint32_t* other_local = nullptr) {
   Prediction out;
   const NewestTriangle* e = nt.entries.data() + nt.first[v];
   const NewestTriangle* const end = nt.entries.data() + nt.first[v + 1];
@@ -144,19 +168,23 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     const uint32_t w = u != kNoVertexId ? u : v - 1;
     for (int k = 0; k < 3; ++k) {
       out.local[k] = u != kNoVertexId ? lane(symbols[u], k) : 0;
+      if constexpr (kTwoCodings) other_local[k] = u != kNoVertexId ? lane(other_symbols[u], k) : 0;
       out.xyz[k] = v > 0 ? xyz[3 * size_t{w} + k] : 0;
     }
     return out;
   }
+  const NewestTriangle* const begin = e;
   int64_t sum[3] = {0, 0, 0};  // parallelograms
   int64_t mid[3] = {0, 0, 0};  // n + p, for the midpoints when there is no parallelogram
   uint64_t lanes = 0;          // the neighbours' symbols, per axis
+  uint64_t other_lanes = 0;
   int64_t count = 0;
   const uint32_t entries = static_cast<uint32_t>(end - e);
   for (; e != end; ++e) {
     const int32_t* n = xyz + 3 * size_t{e->n};
     const int32_t* p = xyz + 3 * size_t{e->p};
     lanes += uint64_t{symbols[e->n]} + symbols[e->p];
+    if constexpr (kTwoCodings) other_lanes += uint64_t{other_symbols[e->n]} + other_symbols[e->p];
     // Without a branch: an absent o adds nothing (and reads n, which exists).
     const bool use = e->o != kNoVertexId && (mode == kAverageAll || count == 0);
     const int32_t* o = xyz + 3 * size_t{use ? e->o : e->n};
@@ -168,19 +196,8 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     }
     count += w;
   }
-  // Per axis, the rounded mean of the 2 * entries neighbours' symbols.
-  if (entries <= kMaxSmallDivisor / 2) [[likely]] {
-    for (int k = 0; k < 3; ++k) {
-      out.local[k] = ((lane(lanes, k) + entries) * kReciprocal[2 * entries]) >> 16;
-    }
-  } else {
-    // Lanes may overflow into each other beyond 16 entries: add them up again, apart.
-    uint32_t sums[3] = {0, 0, 0};
-    for (const NewestTriangle* f = end - entries; f != end; ++f) {
-      for (int k = 0; k < 3; ++k) sums[k] += lane(symbols[f->n], k) + lane(symbols[f->p], k);
-    }
-    for (int k = 0; k < 3; ++k) out.local[k] = (sums[k] + entries) / (2 * entries);
-  }
+  mean_symbols(begin, end, lanes, symbols, out.local);
+  if constexpr (kTwoCodings) mean_symbols(begin, end, other_lanes, other_symbols, other_local);
   if (count > 0) {
     out.kind = count > 1 ? kMultiParallelogram : kParallelogram;
     for (int k = 0; k < 3; ++k) out.xyz[k] = rounded_mean(sum[k], count);
@@ -411,6 +428,33 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   return Status::ok_status();
 }
 
+// The encoder's tangent plane for v, whose coordinates are known: `base` (its prediction) with
+// the normal's largest axis moved onto the plane, as the decoder will move it.
+inline void move_onto_tangent_plane(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
+                                    int64_t base[3]) {
+  const Normal normal = parallelogram_normal(v, nt, xyz);
+  if (normal.axis == kNoAxis) return;
+  int64_t r[3];
+  for (int k = 0; k < 3; ++k) r[k] = int64_t{xyz[3 * size_t{v} + k]} - base[k];
+  base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
+}
+
+// Plain residuals of one vertex (coordinates `at`) from `base`: hands each axis's (context,
+// symbol, z) to `sink`, updates `previous` and returns the packed symbols.
+template <class Sink>
+inline uint32_t code_plain(const int32_t* at, const int64_t base[3], PredictionKind kind,
+                           const uint32_t local[3], const ContextModel& model,
+                           uint32_t previous[3], Sink& sink) {
+  uint32_t symbol[3];
+  for (int k = 0; k < 3; ++k) {
+    const uint64_t z = zigzag(int64_t{at[k]} - base[k]);
+    symbol[k] = residual_symbol(z);
+    sink(model.context(kind, local[k], previous[k]), symbol[k], z, true);
+    previous[k] = symbol[k];
+  }
+  return pack_symbols(symbol[0], symbol[1], symbol[2]);
+}
+
 // Where a coding's encoder loop stands: the vertices before `next` (in decoding order) are
 // coded, and what the next vertex's prediction and contexts read of them is kept.
 struct LoopState {
@@ -436,47 +480,64 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
   uint32_t previous_mask = state->previous_mask;
   for (uint32_t v = state->next; v < end; ++v) {
     const Prediction pred = predict(v, nt, xyz, symbols, mode);
-    uint32_t symbol[3];
     if (lattice == 0) {
       int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
-      const Normal normal = tangent_plane ? parallelogram_normal(v, nt, xyz) : Normal();
-      if (normal.axis != kNoAxis) {
-        int64_t r[3];
-        for (int k = 0; k < 3; ++k) r[k] = int64_t{xyz[3 * size_t{v} + k]} - base[k];
-        base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
-      }
-      for (int k = 0; k < 3; ++k) {
-        const uint64_t z = zigzag(int64_t{xyz[3 * size_t{v} + k]} - base[k]);
+      if (tangent_plane) move_onto_tangent_plane(v, nt, xyz, base);
+      symbols[v] = code_plain(xyz + 3 * size_t{v}, base, pred.kind, pred.local, model, previous,
+                              sink);
+      continue;
+    }
+    uint32_t symbol[3];
+    const uint32_t dominant = parallelogram_normal(v, nt, xyz).axis;
+    uint32_t mask = 0;
+    for (int k = 0; k < 3; ++k) {
+      mask |= (xyz[3 * size_t{v} + k] % lattice == 0 ? 1u : 0u) << k;
+    }
+    sink(mask_context(dominant, previous_mask), mask, 0, false);
+    previous_mask = mask;
+    for (int k = 0; k < 3; ++k) {
+      const int64_t c = xyz[3 * size_t{v} + k];
+      if (((mask >> k) & 1)) {
+        const uint64_t z = zigzag(c / lattice - nearest_plane(pred.xyz[k], lattice));
         symbol[k] = residual_symbol(z);
-        sink(model.context(pred.kind, pred.local[k], previous[k]), symbol[k], z, true);
-        previous[k] = symbol[k];
-      }
-    } else {
-      const uint32_t dominant = parallelogram_normal(v, nt, xyz).axis;
-      uint32_t mask = 0;
-      for (int k = 0; k < 3; ++k) {
-        mask |= (xyz[3 * size_t{v} + k] % lattice == 0 ? 1u : 0u) << k;
-      }
-      sink(mask_context(dominant, previous_mask), mask, 0, false);
-      previous_mask = mask;
-      for (int k = 0; k < 3; ++k) {
-        const int64_t c = xyz[3 * size_t{v} + k];
-        if (((mask >> k) & 1)) {
-          const uint64_t z = zigzag(c / lattice - nearest_plane(pred.xyz[k], lattice));
-          symbol[k] = residual_symbol(z);
-          sink(plane_context(pred.kind, dominant == uint32_t(k), pred.local[k]), symbol[k], z,
-               true);
-        } else {
-          const uint64_t z = zigzag(c - pred.xyz[k]);
-          symbol[k] = residual_symbol(z);
-          sink(free_context(pred.kind, pred.local[k]), symbol[k], z, true);
-        }
+        sink(plane_context(pred.kind, dominant == uint32_t(k), pred.local[k]), symbol[k], z,
+             true);
+      } else {
+        const uint64_t z = zigzag(c - pred.xyz[k]);
+        symbol[k] = residual_symbol(z);
+        sink(free_context(pred.kind, pred.local[k]), symbol[k], z, true);
       }
     }
     symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
   }
   state->next = end;
   state->previous_mask = previous_mask;
+}
+
+// Plain residuals of the first `end` vertices under one parallelogram mode, without and with the
+// tangent plane, in one pass: the two codings share the prediction, and differ from their own
+// symbols on (the neighbours' activity in their contexts). For measuring; both start at vertex 0.
+template <class FlatSink, class PlaneSink>
+void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
+                 PredictionMode mode, uint32_t end, LoopState* flat, LoopState* plane,
+                 FlatSink&& flat_sink, PlaneSink&& plane_sink) {
+  assert(flat->next == 0 && plane->next == 0 && end <= q.xyz.size() / 3);
+  flat->symbols.resize(end);
+  plane->symbols.resize(end);
+  const int32_t* xyz = q.xyz.data();
+  for (uint32_t v = 0; v < end; ++v) {
+    uint32_t plane_local[3];
+    const Prediction pred = predict<true>(v, nt, xyz, flat->symbols.data(), mode,
+                                          plane->symbols.data(), plane_local);
+    const int32_t* at = xyz + 3 * size_t{v};
+    int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
+    flat->symbols[v] = code_plain(at, base, pred.kind, pred.local, model, flat->previous, flat_sink);
+    move_onto_tangent_plane(v, nt, xyz, base);
+    plane->symbols[v] = code_plain(at, base, pred.kind, plane_local, model, plane->previous,
+                                   plane_sink);
+  }
+  flat->next = end;
+  plane->next = end;
 }
 
 }  // namespace
@@ -515,24 +576,53 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
                 coding.lattice, end, &coding.state, sink);
   };
   std::optional<Coding> best;
-  for (int use_lattice = 0; use_lattice <= (lattice != 0 ? 1 : 0); ++use_lattice) {
-    const uint32_t contexts = use_lattice ? kLatticeContexts : model.contexts();
-    // The tangent plane is for plain residuals: lattice coding has its own use of the normal.
-    for (uint32_t m = 0; m < (use_lattice ? kModes : 2 * kModes); ++m) {
-      Coding trial{static_cast<uint8_t>(m), use_lattice ? lattice : 0, LoopState(),
-                   SymbolEncoder(kResidualSymbols, contexts), 0};
-      trial.enc.reserve(size_t{measured} * (use_lattice ? 4 : 3));
-      std::vector<uint32_t> histogram(size_t{contexts} * kResidualSymbols, 0);
-      uint64_t raw_bits = 0;
-      auto put = queue(trial.enc);
-      run(trial, measured, [&](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
-        ++histogram[size_t{context} * kResidualSymbols + symbol];
-        if (residual && symbol >= 4) raw_bits += bit_length(z) - 2;
-        put(context, symbol, z, residual);
-      });
-      trial.bits = estimated_bits(histogram, contexts, raw_bits);
-      if (!best.has_value() || trial.bits < best->bits) best = std::move(trial);
+  // The cheaper coding; of equals, the first in the order plain modes 0 to 3, then lattice.
+  auto rank = [](const Coding& c) { return c.mode + (c.lattice != 0 ? 2 * kModes : 0); };
+  auto keep = [&](Coding& trial) {
+    if (!best.has_value() || trial.bits < best->bits ||
+        (trial.bits == best->bits && rank(trial) < rank(*best))) {
+      best = std::move(trial);
     }
+  };
+  // Measures a coding as it queues its symbols.
+  struct Measure {
+    std::vector<uint32_t> histogram;
+    uint64_t raw_bits = 0;
+  };
+  auto measuring = [&](Coding& coding, Measure& m) {
+    return [&coding, &m](uint32_t context, uint32_t symbol, uint64_t z, bool residual) {
+      ++m.histogram[size_t{context} * kResidualSymbols + symbol];
+      if (residual) m.raw_bits += residual_raw_bits(symbol, z);
+      coding.enc.put(context, symbol);
+      if (residual) put_residual_bits(coding.enc, symbol, z);
+    };
+  };
+  auto start = [&](uint8_t mode, uint32_t coding_lattice, uint32_t contexts) {
+    Coding c{mode, coding_lattice, LoopState(), SymbolEncoder(kResidualSymbols, contexts), 0};
+    c.enc.reserve(size_t{measured} * (coding_lattice != 0 ? 4 : 3));
+    return c;
+  };
+  for (uint32_t m = 0; m < kModes; ++m) {
+    // Plain residuals without and with the tangent plane, in one pass.
+    const uint32_t contexts = model.contexts();
+    Coding flat = start(static_cast<uint8_t>(m), 0, contexts);
+    Coding plane = start(static_cast<uint8_t>(m + kModes), 0, contexts);
+    Measure flat_count{std::vector<uint32_t>(size_t{contexts} * kResidualSymbols, 0)};
+    Measure plane_count{std::vector<uint32_t>(size_t{contexts} * kResidualSymbols, 0)};
+    encode_pair(nt, q, model, PredictionMode(m), measured, &flat.state, &plane.state,
+                measuring(flat, flat_count), measuring(plane, plane_count));
+    flat.bits = estimated_bits(flat_count.histogram, contexts, flat_count.raw_bits);
+    plane.bits = estimated_bits(plane_count.histogram, contexts, plane_count.raw_bits);
+    keep(flat);
+    keep(plane);
+  }
+  // Lattice coding (it has its own use of the normal, and no tangent plane).
+  for (uint32_t m = 0; lattice != 0 && m < kModes; ++m) {
+    Coding trial = start(static_cast<uint8_t>(m), lattice, kLatticeContexts);
+    Measure count{std::vector<uint32_t>(size_t{kLatticeContexts} * kResidualSymbols, 0)};
+    run(trial, measured, measuring(trial, count));
+    trial.bits = estimated_bits(count.histogram, kLatticeContexts, count.raw_bits);
+    keep(trial);
   }
 
   out->push_back(best->mode);

@@ -25,18 +25,24 @@ inline uint32_t bit_length(uint64_t z) {
   return z == 0 ? 0 : 64 - uint32_t(__builtin_clzll(z));
 }
 
+/// The symbol of a zigzagged residual z < 2^34. Selects rather than branches: whether a residual
+/// is below 4 is a coin toss the branch predictor loses.
 inline uint32_t residual_symbol(uint64_t z) {
-  if (z < 4) return uint32_t(z);
-  uint32_t b = bit_length(z);  // >= 3
-  return 4 + 2 * (b - 3) + uint32_t((z >> (b - 2)) & 1);
+  const uint32_t b = bit_length(z | 1);  // >= 3 where it counts (z >= 4)
+  const uint32_t large = 2 * b - 2 + uint32_t((z >> (b < 2 ? 0 : b - 2)) & 1);
+  return z < 4 ? uint32_t(z) : large;
+}
+
+/// How many raw bits follow `symbol` for the zigzagged value z: bit length - 2, none below 4.
+inline int residual_raw_bits(uint32_t symbol, uint64_t z) {
+  return symbol < 4 ? 0 : int(bit_length(z)) - 2;
 }
 
 /// The raw bits that follow `symbol` for the zigzagged value z.
 inline void put_residual_bits(SymbolEncoder& enc, uint32_t symbol, uint64_t z) {
-  if (symbol < 4) return;
-  int bits = int(bit_length(z)) - 2;
-  uint64_t rest = z & ((uint64_t{1} << bits) - 1);
-  if (bits > 32) {
+  const int bits = residual_raw_bits(symbol, z);
+  const uint64_t rest = z & ((uint64_t{1} << bits) - 1);
+  if (bits > 32) [[unlikely]] {
     enc.put_bits(uint32_t(rest & 0xffffffffu), 32);
     enc.put_bits(uint32_t(rest >> 32), bits - 32);
   } else {
