@@ -217,14 +217,14 @@ struct ContextModel {
   uint32_t activity_classes;
   uint32_t previous_classes;
   // The context's three terms, looked up: kind, local (< 128) and previous symbol (< 128).
-  std::array<uint16_t, kKinds> kind_term;
+  std::array<uint16_t, 2 * kKinds> kind_term;  // kind + kKinds: the tangent plane's normal axis
   std::array<uint16_t, 128> local_term;
   std::array<uint16_t, 128> previous_term;
 
   explicit ContextModel(uint32_t vertex_count)
       : activity_classes(vertex_count < 2000 ? 2 : (vertex_count < 50000 ? 6 : 10)),
         previous_classes(vertex_count < 2000 ? 1 : 6) {
-    for (uint32_t k = 0; k < kKinds; ++k) {
+    for (uint32_t k = 0; k < 2 * kKinds; ++k) {
       kind_term[k] = static_cast<uint16_t>(k * activity_classes * previous_classes);
     }
     for (uint32_t i = 0; i < 128; ++i) {
@@ -233,10 +233,14 @@ struct ContextModel {
     }
   }
 
-  uint32_t contexts() const { return kKinds * activity_classes * previous_classes; }
+  /// Plain coding's; tangent-plane coding has twice as many, its normal axis apart.
+  uint32_t contexts(bool tangent_plane) const {
+    return (tangent_plane ? 2 : 1) * kKinds * activity_classes * previous_classes;
+  }
   /// (kind * activity_classes + min(local, activity_classes - 1)) * previous_classes
-  ///   + min(previous_symbol >> 1, previous_classes - 1); local, previous_symbol < 128.
-  uint32_t context(PredictionKind kind, uint32_t local, uint32_t previous_symbol) const {
+  ///   + min(previous_symbol >> 1, previous_classes - 1); local, previous_symbol < 128; kind is
+  ///   a PredictionKind, plus kKinds for the tangent plane's normal axis.
+  uint32_t context(uint32_t kind, uint32_t local, uint32_t previous_symbol) const {
     return kind_term[kind] + local_term[local & 127] + previous_term[previous_symbol & 127];
   }
 };
@@ -371,7 +375,12 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     if (lattice != 0 || tangent_plane) normal = parallelogram_normal(v, nt, xyz);
     uint32_t context[3];
     if (lattice == 0) [[likely]] {
-      for (int k = 0; k < 3; ++k) context[k] = model.context(pred.kind, pred.local[k], previous[k]);
+      // The tangent plane's normal axis codes in contexts of its own (normal.axis is none
+      // without the tangent plane).
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t kind = pred.kind + (uint32_t(k) == normal.axis ? uint32_t{kKinds} : 0u);
+        context[k] = model.context(kind, pred.local[k], previous[k]);
+      }
     } else {
       const uint32_t dominant = normal.axis;
       mask = dec.get(cursor, mask_context(dominant, mask & 7));
@@ -430,26 +439,29 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
 
 // The encoder's tangent plane for v, whose coordinates are known: `base` (its prediction) with
 // the normal's largest axis moved onto the plane, as the decoder will move it.
-inline void move_onto_tangent_plane(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
-                                    int64_t base[3]) {
+inline uint32_t move_onto_tangent_plane(uint32_t v, const NewestTriangles& nt,
+                                        const int32_t* xyz, int64_t base[3]) {
   const Normal normal = parallelogram_normal(v, nt, xyz);
-  if (normal.axis == kNoAxis) return;
+  if (normal.axis == kNoAxis) return kNoAxis;
   int64_t r[3];
   for (int k = 0; k < 3; ++k) r[k] = int64_t{xyz[3 * size_t{v} + k]} - base[k];
   base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
+  return normal.axis;
 }
 
 // Plain residuals of one vertex (coordinates `at`) from `base`: hands each axis's (context,
-// symbol, z) to `sink`, updates `previous` and returns the packed symbols.
+// symbol, z) to `sink`, updates `previous` and returns the packed symbols. normal_axis: the
+// tangent plane's, which codes in contexts of its own (kNoAxis for none).
 template <class Sink>
 inline uint32_t code_plain(const int32_t* at, const int64_t base[3], PredictionKind kind,
-                           const uint32_t local[3], const ContextModel& model,
-                           uint32_t previous[3], Sink& sink) {
+                           uint32_t normal_axis, const uint32_t local[3],
+                           const ContextModel& model, uint32_t previous[3], Sink& sink) {
   uint32_t symbol[3];
   for (int k = 0; k < 3; ++k) {
     const uint64_t z = zigzag(int64_t{at[k]} - base[k]);
     symbol[k] = residual_symbol(z);
-    sink(model.context(kind, local[k], previous[k]), symbol[k], z, true);
+    const uint32_t context_kind = kind + (uint32_t(k) == normal_axis ? uint32_t{kKinds} : 0u);
+    sink(model.context(context_kind, local[k], previous[k]), symbol[k], z, true);
     previous[k] = symbol[k];
   }
   return pack_symbols(symbol[0], symbol[1], symbol[2]);
@@ -482,9 +494,9 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
     const Prediction pred = predict(v, nt, xyz, symbols, mode);
     if (lattice == 0) {
       int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
-      if (tangent_plane) move_onto_tangent_plane(v, nt, xyz, base);
-      symbols[v] = code_plain(xyz + 3 * size_t{v}, base, pred.kind, pred.local, model, previous,
-                              sink);
+      const uint32_t axis = tangent_plane ? move_onto_tangent_plane(v, nt, xyz, base) : kNoAxis;
+      symbols[v] = code_plain(xyz + 3 * size_t{v}, base, pred.kind, axis, pred.local, model,
+                              previous, sink);
       continue;
     }
     uint32_t symbol[3];
@@ -531,10 +543,11 @@ void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const C
                                           plane->symbols.data(), plane_local);
     const int32_t* at = xyz + 3 * size_t{v};
     int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
-    flat->symbols[v] = code_plain(at, base, pred.kind, pred.local, model, flat->previous, flat_sink);
-    move_onto_tangent_plane(v, nt, xyz, base);
-    plane->symbols[v] = code_plain(at, base, pred.kind, plane_local, model, plane->previous,
-                                   plane_sink);
+    flat->symbols[v] =
+        code_plain(at, base, pred.kind, kNoAxis, pred.local, model, flat->previous, flat_sink);
+    const uint32_t axis = move_onto_tangent_plane(v, nt, xyz, base);
+    plane->symbols[v] =
+        code_plain(at, base, pred.kind, axis, plane_local, model, plane->previous, plane_sink);
   }
   flat->next = end;
   plane->next = end;
@@ -604,15 +617,16 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   };
   for (uint32_t m = 0; m < kModes; ++m) {
     // Plain residuals without and with the tangent plane, in one pass.
-    const uint32_t contexts = model.contexts();
+    const uint32_t contexts = model.contexts(false);
+    const uint32_t plane_contexts = model.contexts(true);
     Coding flat = start(static_cast<uint8_t>(m), 0, contexts);
-    Coding plane = start(static_cast<uint8_t>(m + kModes), 0, contexts);
+    Coding plane = start(static_cast<uint8_t>(m + kModes), 0, plane_contexts);
     Measure flat_count{std::vector<uint32_t>(size_t{contexts} * kResidualSymbols, 0)};
-    Measure plane_count{std::vector<uint32_t>(size_t{contexts} * kResidualSymbols, 0)};
+    Measure plane_count{std::vector<uint32_t>(size_t{plane_contexts} * kResidualSymbols, 0)};
     encode_pair(nt, q, model, PredictionMode(m), measured, &flat.state, &plane.state,
                 measuring(flat, flat_count), measuring(plane, plane_count));
     flat.bits = estimated_bits(flat_count.histogram, contexts, flat_count.raw_bits);
-    plane.bits = estimated_bits(plane_count.histogram, contexts, plane_count.raw_bits);
+    plane.bits = estimated_bits(plane_count.histogram, plane_contexts, plane_count.raw_bits);
     keep(flat);
     keep(plane);
   }
@@ -656,8 +670,8 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   const ContextModel model(vertex_count);
   SymbolDecoder dec;
   OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols,
-                                  lattice != 0 ? kLatticeContexts : model.contexts(), source,
-                                  "geometry"));
+                                  lattice != 0 ? kLatticeContexts : model.contexts(mode >= kModes),
+                                  source, "geometry"));
   const uint64_t symbols_per_vertex = lattice != 0 ? 4 : 3;
   if (dec.symbols_left() != symbols_per_vertex * vertex_count) {
     return error(
