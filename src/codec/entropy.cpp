@@ -324,9 +324,14 @@ class LogTerms {
   double symbol(uint64_t c) const {
     return c < kSize ? symbol_[c] : 2 + std::log2(1 + double(c)) - double(c) * std::log2(double(c));
   }
+  /// symbol(c) for c < kSize: a lookup and nothing else, so that a loop of them calls nothing
+  /// (a call would spill its accumulator to memory on every step).
+  double small_symbol(uint32_t c) const { return symbol_[c]; }
+
+  /// Counts the tables hold: any two merge candidates together (each has under kMergeBelow).
+  static constexpr uint32_t kSize = 8192;
 
  private:
-  static constexpr uint32_t kSize = 4096;
   std::array<double, kSize> entropy_;
   std::array<double, kSize> symbol_;
 };
@@ -343,9 +348,18 @@ const LogTerms& log_terms() {
 double merge_saving(const LogTerms& terms, uint64_t total_a, const uint32_t* scattered,
                     uint64_t total_b, const SparseCounts& b) {
   double shared = 0;  // per shared symbol: its table bits saved, less the entropy lost
-  for (const auto& [symbol, count_b] : b) {
-    const uint32_t count_a = scattered[symbol];
-    shared += terms.symbol(count_a) + terms.symbol(count_b) - terms.symbol(uint64_t{count_a} + count_b);
+  if (total_a + total_b < LogTerms::kSize) [[likely]] {  // every count is, then
+    for (const auto& [symbol, count_b] : b) {
+      const uint32_t count_a = scattered[symbol];
+      shared += terms.small_symbol(count_a) + terms.small_symbol(count_b) -
+                terms.small_symbol(count_a + count_b);
+    }
+  } else {
+    for (const auto& [symbol, count_b] : b) {
+      const uint32_t count_a = scattered[symbol];
+      shared += terms.symbol(count_a) + terms.symbol(count_b) -
+                terms.symbol(uint64_t{count_a} + count_b);
+    }
   }
   constexpr double kHeaderBits = 8;
   return terms.entropy(total_a) + terms.entropy(total_b) - terms.entropy(total_a + total_b) +
