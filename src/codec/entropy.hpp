@@ -86,6 +86,9 @@ class SymbolEncoder {
   static constexpr uint32_t kContextShift = 12;  // a queued symbol is context << 12 | symbol
 
   size_t symbol_count() const { return queued_.size(); }
+  /// The symbols queued so far, as (context << kContextShift | symbol), and the raw bits.
+  const std::vector<uint32_t>& queued() const { return queued_; }
+  uint64_t raw_bit_count() const { return bit_count_; }
 
   /// Appends the section: its layout is in docs/FORMAT.md ("Symbol section"). Frequencies are
   /// measured per context over the queued symbols; contexts with few symbols may share a table
