@@ -245,8 +245,9 @@ struct ContextModel {
   }
 };
 
-// Bits a symbol stream would cost under the context model, from its histogram (the table bytes
-// are the same order of magnitude for both modes and left out).
+// Bits a symbol stream would cost under the context model, from its histogram. The tables are
+// left out: a few hundred bytes, though the tangent plane's codings may use up to twice as many
+// contexts, which this favours slightly on small meshes.
 double estimated_bits(const std::vector<uint32_t>& histogram, uint32_t contexts,
                       uint64_t raw_bits) {
   double bits = double(raw_bits);
@@ -563,7 +564,8 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   const ContextModel model(vertex_count);
   if (lattice < 2 || lattice > kMaxLattice) lattice = 0;
 
-  // Measure both prediction modes, with and without the lattice, then code with the cheapest.
+  // Measure the codings (both parallelogram modes, with and without the tangent plane, and on
+  // the lattice where there is one), then code with the cheapest.
   // They are measured on a prefix in decoding order, a connected patch coded as the whole mesh
   // codes it (its contexts come from vertices before): a quarter of the vertices, at least
   // kMeasuredVertices / 4 and at most kMeasuredVertices. Measuring every vertex took 2-4 passes
