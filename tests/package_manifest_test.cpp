@@ -156,6 +156,30 @@ TEST(PackageManifest, WriterAndParserAgree) {
   EXPECT_EQ(a, b);
 }
 
+// The streams' version: written by pack, absent from packages written before it was recorded,
+// and a version this build cannot decode refused up front.
+TEST(PackageManifest, StreamVersionIsRecordedAndChecked) {
+  Result<Manifest> older = parse_file("valid_phantom.json");
+  ASSERT_TRUE(older.ok()) << older.status().message();
+  EXPECT_EQ(older->stream_version, 0) << "not said";
+  Manifest current = older.value();
+  current.stream_version = kStreamVersion;
+  const std::string text = write_manifest(current);
+  EXPECT_EQ(nlohmann::json::parse(text)["stream_version"], kStreamVersion);
+  Result<Manifest> back =
+      parse_manifest(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "manifest.json");
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(back->stream_version, kStreamVersion);
+  Result<Manifest> newer = parse_file("bad_stream_version.json");
+  ASSERT_FALSE(newer.ok());
+  EXPECT_EQ(newer.status().code(), ErrorCode::kUnsupported);
+  EXPECT_NE(newer.status().message().find("decodes stream versions 1 to " +
+                                          std::to_string(kStreamVersion) +
+                                          ", the package's are version 9"),
+            std::string::npos)
+      << newer.status().message();
+}
+
 TEST(PackageManifest, NotJsonAndHugeInputsAreRefused) {
   const std::string not_json = "{\"format\": \"osteon-package\", ";
   Result<Manifest> m = parse_manifest(reinterpret_cast<const uint8_t*>(not_json.data()),

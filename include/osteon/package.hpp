@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "osteon/codec.hpp"
 #include "osteon/mesh.hpp"
 #include "osteon/status.hpp"
 #include "osteon/vec.hpp"
@@ -97,6 +98,9 @@ struct ManifestInstance {
 };
 
 struct Manifest {
+  /// The .ostm version of every stream in the package; 0 when the manifest does not say
+  /// (packages written before it did, whose streams are version 1 or 2).
+  int stream_version = kStreamVersion;
   Unit unit = Unit::kUnknown;
   Aabb bounds;  ///< of every part, in world coordinates
   /// When the patient's axes are known (parts from label volumes, in LPS): the viewer's up

@@ -13,6 +13,9 @@
 // The codec's encoder: cleans the mesh, quantizes it, codes connectivity then geometry in the
 // connectivity's vertex order, and writes the container (docs/FORMAT.md, "Mesh stream").
 
+static_assert(osteon::kStreamVersion == osteon::detail::kStreamVersion,
+              "the public stream version is the one the encoder writes");
+
 namespace osteon {
 
 namespace {

@@ -508,6 +508,19 @@ Result<Manifest> parse_manifest(const uint8_t* data, size_t size, const std::str
     return check.status();
   }
   Manifest manifest;
+  manifest.stream_version = 0;  // not said
+  if (in.contains("stream_version")) {
+    const json& streams = in["stream_version"];
+    if (!streams.is_number_integer() || streams.get<int64_t>() < 1 ||
+        streams.get<int64_t>() > kStreamVersion) {
+      check.fail("stream_version",
+                 "osteon decodes stream versions 1 to " + std::to_string(kStreamVersion) +
+                     ", the package's are version " + streams.dump(),
+                 ErrorCode::kUnsupported);
+      return check.status();
+    }
+    manifest.stream_version = static_cast<int>(streams.get<int64_t>());
+  }
   std::string unit;
   if (!check.string(Checker::member(in, "unit"), "unit", &unit)) return check.status();
   const bool known = unit == "mm" || unit == "cm" || unit == "m" || unit == "in";

@@ -107,6 +107,7 @@ std::string write_manifest(const Manifest& manifest) {
   json out;
   out["format"] = "osteon-package";
   out["version"] = kManifestVersion;
+  if (manifest.stream_version != 0) out["stream_version"] = manifest.stream_version;
   out["chunks"] = std::move(chunks);
   out["unit"] = unit_name(manifest.unit);
   out["bounds"] = box_json(manifest.bounds);

@@ -13,6 +13,11 @@
 
 const kUnits = new Set(['mm', 'cm', 'm', 'in', 'unknown']);
 
+/// The newest .ostm stream version the decoder built beside this viewer (web/decoder) reads: the
+/// C++ kStreamVersion (include/osteon/codec.hpp). A package's manifest records its streams'
+/// version, so a viewer too old for them says so before fetching anything.
+export const kStreamVersion = 3;
+
 /// The most languages, groups and group levels a manifest may hold (docs/FORMAT.md, "Groups and
 /// languages"); the C++ parser's kMaxLanguages, kMaxGroups, kMaxGroupDepth.
 export const kMaxLanguages = 64;
@@ -289,6 +294,10 @@ function* manifestSteps(json) {
   if (!isObject(json)) fail('top level', 'expected a JSON object');
   if (json.format !== 'osteon-package') fail('format', `expected "osteon-package", got ${JSON.stringify(json.format)}`);
   if (json.version !== 2 && json.version !== 3) fail('version', `this viewer reads versions 2 and 3, the package is version ${JSON.stringify(json.version)}`);
+  // The .ostm version of every stream (absent in packages written before it was recorded).
+  if (json.stream_version !== undefined && !(Number.isInteger(json.stream_version) && json.stream_version >= 1 && json.stream_version <= kStreamVersion)) {
+    fail('stream_version', `this viewer decodes stream versions 1 to ${kStreamVersion}, the package's are version ${JSON.stringify(json.stream_version)}`);
+  }
   const unit = string(json.unit, 'unit');
   if (!kUnits.has(unit)) fail('unit', `expected one of ${[...kUnits].join(', ')}, got ${JSON.stringify(unit)}`);
   const bounds = box(json.bounds, 'bounds');

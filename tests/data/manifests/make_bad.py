@@ -38,6 +38,7 @@ assert base["components"][2]["chunk"] == 1 and base["components"][2]["offset"] +
 bad = {
     "bad_format.json": ("format", lambda m: m.update(format="osteon-mesh")),
     "bad_version.json": ("version", lambda m: m.update(version=1)),
+    "bad_stream_version.json": ("stream_version", lambda m: m.update(stream_version=9)),
     "bad_unit.json": ("unit", lambda m: m.update(unit="furlong")),
     "bad_missing_chunks.json": ("chunks", lambda m: m.pop("chunks")),
     "bad_instances_not_array.json": ("instances", lambda m: m.update(instances={})),
