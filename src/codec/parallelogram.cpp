@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
-#include <optional>
 #include <vector>
 
 #include "codec/connectivity.hpp"
@@ -37,6 +36,11 @@
 // (a 3-bit mask, in the context of the axis its prediction's normal points along most: the edge
 // the surface crosses tends to be that axis) and, per axis, either the plane index's residual
 // from the plane nearest the prediction, in units of L, or the free coordinate's residual.
+//
+// Tangent-plane prediction (stream version 3): on irregular triangles the parallelogram misses
+// mostly along the surface. The axis the normal of the vertex's parallelograms points along most
+// is then predicted on the plane through the prediction with that normal, from the other two
+// axes' residuals (on_tangent_plane), and its residual codes in contexts of its own.
 //
 // Speed: every triangle has exactly one newest vertex, so grouping each triangle (n, p, o) under
 // its newest vertex (NewestTriangles, which the connectivity decoder builds as it writes the
@@ -278,7 +282,7 @@ constexpr uint32_t kLatticeContexts = kFreeBase + kFreeContexts;
 
 /// The normal of v's neighbouring triangles (n, p, o), summed: (n - o) x (p - o) over v's
 /// parallelograms (zero when it has none). Wrapping 64-bit arithmetic: the same on both sides
-/// whatever the coordinates (corrupt streams too), exact while they stay below 2^30.
+/// whatever the coordinates (corrupt streams too), and exact on grids of up to 24 bits.
 struct Normal {
   uint64_t xyz[3] = {0, 0, 0};
   uint32_t axis = kNoAxis;  // the largest component's axis (ties to the lower), kNoAxis for zero
