@@ -34,6 +34,23 @@ TEST(Cli, EverySubcommandHasHelp) {
   }
 }
 
+// The encode report names the geometry's prediction mode: a decimated BodyParts3D bone codes
+// with the tangent plane (mode bit 1).
+TEST(Cli, EncodeJsonReportsThePredictionMode) {
+  OSTEON_REQUIRE_SHARED_DATA(data);
+  const std::string out = test::scratch_dir() + "/cartilage.ostm";
+  CliRun run = run_cli("encode --json " + data +
+                       "/aHer-dev__3DAnatomy/models/bones/"
+                       "FJ646_BP62321_FMA7875_Right_first_costal_cartilage.glb -o " + out);
+  ASSERT_EQ(run.status, 0) << run.err;
+  nlohmann::json j = nlohmann::json::parse(run.out);
+  for (const char* key : {"vertices", "triangles", "bytes", "geometry_bytes", "grid_step",
+                          "prediction_mode", "encode_ms"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  EXPECT_EQ(j["prediction_mode"].get<int>() & 2, 2) << run.out;
+}
+
 TEST(Cli, InfoJsonHasTheDocumentedFields) {
   std::string dir = test::scratch_dir();
   test::write_bytes(dir + "/tetra.stl", kAsciiTetra);

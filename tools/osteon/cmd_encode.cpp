@@ -69,6 +69,7 @@ int run_encode(const EncodeArgs& args) {
         {"bits_per_vertex", report.vertices ? 8.0 * report.bytes / report.vertices : 0.0},
         {"max_error", report.max_error},
         {"grid_step", report.grid_step},
+        {"prediction_mode", report.prediction_mode},  // docs/FORMAT.md, geometry section
         {"encode_ms", ms}};
     std::cout << j.dump(2) << "\n";
   } else {
