@@ -310,20 +310,16 @@ class LogTerms {
     entropy_[0] = 0;  // 0 * log2(0): no symbol, no term
     symbol_[0] = 0;
     for (uint32_t i = 1; i < kSize; ++i) {
-      entropy_[i] = i * std::log2(double(i));
-      symbol_[i] = 2 + std::log2(1 + double(i)) - entropy_[i];
+      entropy_[i] = entropy_of(i);
+      symbol_[i] = symbol_of(i);
     }
   }
   /// c * log2(c), 0 for 0: looked up below kSize (the merging search spent half its time in
   /// log2), computed above.
-  double entropy(uint64_t c) const {
-    return c < kSize ? entropy_[c] : double(c) * std::log2(double(c));
-  }
+  double entropy(uint64_t c) const { return c < kSize ? entropy_[c] : entropy_of(c); }
   /// A present symbol's terms: its table bits, 2 + log2(1 + c), less c * log2(c); 0 for an
   /// absent one (c = 0).
-  double symbol(uint64_t c) const {
-    return c < kSize ? symbol_[c] : 2 + std::log2(1 + double(c)) - double(c) * std::log2(double(c));
-  }
+  double symbol(uint64_t c) const { return c < kSize ? symbol_[c] : symbol_of(c); }
   /// symbol(c) for c < kSize: a lookup and nothing else, so that a loop of them calls nothing
   /// (a call would spill its accumulator to memory on every step).
   double small_symbol(uint32_t c) const { return symbol_[c]; }
@@ -332,6 +328,9 @@ class LogTerms {
   static constexpr uint32_t kSize = 8192;
 
  private:
+  static double entropy_of(uint64_t c) { return double(c) * std::log2(double(c)); }
+  static double symbol_of(uint64_t c) { return 2 + std::log2(1 + double(c)) - entropy_of(c); }
+
   std::array<double, kSize> entropy_;
   std::array<double, kSize> symbol_;
 };
@@ -347,23 +346,23 @@ const LogTerms& log_terms() {
 /// zero, so the loop has no branch on the data: it costs b's pairs and no mispredictions.
 double merge_saving(const LogTerms& terms, uint64_t total_a, const uint32_t* scattered,
                     uint64_t total_b, const SparseCounts& b) {
-  double shared = 0;  // per shared symbol: its table bits saved, less the entropy lost
-  if (total_a + total_b < LogTerms::kSize) [[likely]] {  // every count is, then
+  // Per shared symbol: its table bits saved, less the entropy lost; `term` is LogTerms::symbol,
+  // or small_symbol where every count is below kSize.
+  auto shared = [&](auto&& term) {
+    double sum = 0;
     for (const auto& [symbol, count_b] : b) {
       const uint32_t count_a = scattered[symbol];
-      shared += terms.small_symbol(count_a) + terms.small_symbol(count_b) -
-                terms.small_symbol(count_a + count_b);
+      sum += term(count_a) + term(count_b) - term(uint64_t{count_a} + count_b);
     }
-  } else {
-    for (const auto& [symbol, count_b] : b) {
-      const uint32_t count_a = scattered[symbol];
-      shared += terms.symbol(count_a) + terms.symbol(count_b) -
-                terms.symbol(uint64_t{count_a} + count_b);
-    }
-  }
+    return sum;
+  };
+  const double saved_by_symbols =
+      total_a + total_b < LogTerms::kSize
+          ? shared([&](uint64_t c) { return terms.small_symbol(static_cast<uint32_t>(c)); })
+          : shared([&](uint64_t c) { return terms.symbol(c); });
   constexpr double kHeaderBits = 8;
   return terms.entropy(total_a) + terms.entropy(total_b) - terms.entropy(total_a + total_b) +
-         kHeaderBits + shared;
+         kHeaderBits + saved_by_symbols;
 }
 
 /// The union of a and b, counts added.

@@ -106,7 +106,7 @@ class SymbolEncoder {
   uint32_t contexts_;
   std::vector<uint32_t> queued_;  // (context << 12 | symbol) per symbol, in put order
   std::vector<uint32_t> words_;   // raw bit stream, LSB-first, its whole 32-bit words
-  uint64_t pending_ = 0;          // the bits after bits_ (fewer than 32), lowest first
+  uint64_t pending_ = 0;          // the bits after words_ (fewer than 32), lowest first
   int pending_bits_ = 0;
   uint64_t bit_count_ = 0;
   std::optional<SymbolPlan> plan_;  // from use_plan(); otherwise append_to plans

@@ -241,6 +241,11 @@ struct ContextModel {
   uint32_t contexts(bool tangent_plane) const {
     return (tangent_plane ? 2 : 1) * kKinds * activity_classes * previous_classes;
   }
+  /// The kind term of axis k's context: the prediction's kind, plus kKinds on the tangent plane's
+  /// normal axis (kNoAxis for none), whose residual codes in contexts of its own.
+  static uint32_t axis_kind(PredictionKind kind, int k, uint32_t normal_axis) {
+    return kind + (uint32_t(k) == normal_axis ? uint32_t{kKinds} : 0u);
+  }
   /// (kind * activity_classes + min(local, activity_classes - 1)) * previous_classes
   ///   + min(previous_symbol >> 1, previous_classes - 1); local, previous_symbol < 128; kind is
   ///   a PredictionKind, plus kKinds for the tangent plane's normal axis.
@@ -279,10 +284,19 @@ constexpr uint32_t kFreeContexts = kKinds * 8;       // kind x local
 constexpr uint32_t kPlaneBase = kMaskContexts;
 constexpr uint32_t kFreeBase = kPlaneBase + kPlaneContexts;
 constexpr uint32_t kLatticeContexts = kFreeBase + kFreeContexts;
+/// Symbols a vertex codes: three residuals, and lattice coding's mask before them.
+inline uint32_t symbols_per_vertex(uint64_t lattice) {
+  return lattice != 0 ? 4 : 3;
+}
 
 /// The normal of v's neighbouring triangles (n, p, o), summed: (n - o) x (p - o) over v's
 /// parallelograms (zero when it has none). Wrapping 64-bit arithmetic: the same on both sides
 /// whatever the coordinates (corrupt streams too), and exact on grids of up to 24 bits.
+/// |x| of a 64-bit two's-complement value, as unsigned (0 - x for a negative one).
+inline uint64_t magnitude(uint64_t x) {
+  return x >> 63 ? 0 - x : x;
+}
+
 struct Normal {
   uint64_t xyz[3] = {0, 0, 0};
   uint32_t axis = kNoAxis;  // the largest component's axis (ties to the lower), kNoAxis for zero
@@ -307,7 +321,7 @@ inline Normal parallelogram_normal(uint32_t v, const NewestTriangles& nt, const 
     normal.xyz[2] += a[0] * b[1] - a[1] * b[0];
   }
   uint64_t size[3];
-  for (int k = 0; k < 3; ++k) size[k] = normal.xyz[k] >> 63 ? 0 - normal.xyz[k] : normal.xyz[k];
+  for (int k = 0; k < 3; ++k) size[k] = magnitude(normal.xyz[k]);
   if ((size[0] | size[1] | size[2]) != 0) {
     const uint32_t axis = size[1] > size[0] ? 1 : 0;
     normal.axis = size[2] > size[axis] ? 2 : axis;
@@ -331,8 +345,7 @@ inline int64_t on_tangent_plane(const Normal& normal, int64_t pred, const int64_
   const uint32_t d = normal.axis;
   const uint32_t a = d == 0 ? 1 : 0;
   const uint32_t b = d == 2 ? 1 : 2;
-  const uint64_t size = normal.xyz[d] >> 63 ? 0 - normal.xyz[d] : normal.xyz[d];
-  const int shift = std::max(0, static_cast<int>(std::bit_width(size)) - 24);
+  const int shift = std::max(0, static_cast<int>(std::bit_width(magnitude(normal.xyz[d]))) - 24);
   int64_t den = static_cast<int64_t>(normal.xyz[d]) >> shift;
   int64_t num = (static_cast<int64_t>(normal.xyz[a]) >> shift) * r[a] +
                 (static_cast<int64_t>(normal.xyz[b]) >> shift) * r[b];
@@ -380,10 +393,9 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     if (lattice != 0 || tangent_plane) normal = parallelogram_normal(v, nt, xyz);
     uint32_t context[3];
     if (lattice == 0) [[likely]] {
-      // The tangent plane's normal axis codes in contexts of its own (normal.axis is none
-      // without the tangent plane).
+      // normal.axis is none without the tangent plane.
       for (int k = 0; k < 3; ++k) {
-        const uint32_t kind = pred.kind + (uint32_t(k) == normal.axis ? uint32_t{kKinds} : 0u);
+        const uint32_t kind = ContextModel::axis_kind(pred.kind, k, normal.axis);
         context[k] = model.context(kind, pred.local[k], previous[k]);
       }
     } else {
@@ -465,8 +477,8 @@ inline uint32_t code_plain(const int32_t* at, const int64_t base[3], PredictionK
   for (int k = 0; k < 3; ++k) {
     const uint64_t z = zigzag(int64_t{at[k]} - base[k]);
     symbol[k] = residual_symbol(z);
-    const uint32_t context_kind = kind + (uint32_t(k) == normal_axis ? uint32_t{kKinds} : 0u);
-    sink(model.context(context_kind, local[k], previous[k]), symbol[k], z, true);
+    sink(model.context(ContextModel::axis_kind(kind, k, normal_axis), local[k], previous[k]),
+         symbol[k], z, true);
     previous[k] = symbol[k];
   }
   return pack_symbols(symbol[0], symbol[1], symbol[2]);
@@ -603,7 +615,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   auto add = [&](uint8_t mode, uint32_t coding_lattice, uint32_t contexts) {
     codings.push_back(
         {mode, coding_lattice, LoopState(), SymbolEncoder(kResidualSymbols, contexts), 0});
-    codings.back().enc.reserve(size_t{measured} * (coding_lattice != 0 ? 4 : 3));
+    codings.back().enc.reserve(size_t{measured} * symbols_per_vertex(coding_lattice));
     codings.back().state.symbols.reserve(measured);
   };
   for (uint32_t m = 0; m < 2 * kModes; ++m) {
@@ -654,7 +666,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   out->push_back(kept.mode);
   ByteWriter writer(out);
   writer.write_varint(kept.lattice);
-  kept.enc.reserve(size_t{vertex_count - kept.state.next} * (kept.lattice != 0 ? 4 : 3));
+  kept.enc.reserve(size_t{vertex_count - kept.state.next} * symbols_per_vertex(kept.lattice));
   run(kept, vertex_count, queue(kept.enc));
   kept.enc.append_to(out);
 }
@@ -684,8 +696,7 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols,
                                   lattice != 0 ? kLatticeContexts : model.contexts(mode >= kModes),
                                   source, "geometry"));
-  const uint64_t symbols_per_vertex = lattice != 0 ? 4 : 3;
-  if (dec.symbols_left() != symbols_per_vertex * vertex_count) {
+  if (dec.symbols_left() != uint64_t{symbols_per_vertex(lattice)} * vertex_count) {
     return error(
         ErrorCode::kInvalidData, source,
         message("geometry: % residual symbols for % vertices", {dec.symbols_left(), vertex_count}),
