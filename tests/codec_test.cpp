@@ -92,6 +92,24 @@ Mesh make_lattice_sphere(int subdivisions, float radius, float spacing) {
   return mesh;
 }
 
+// A regular surface whose triangles scatter around equilateral, as on a smoothed isosurface: an
+// icosphere whose vertices move by up to `amount` / 2 per axis (a fixed linear congruential
+// sequence, the same on every platform), then back onto the sphere.
+Mesh make_jittered_sphere(int subdivisions, float radius, float amount) {
+  Mesh mesh = make_icosphere(subdivisions, radius);
+  uint32_t state = 12345;
+  auto jitter = [&] {
+    state = state * 1664525u + 1013904223u;
+    return amount * (float(state >> 8) / float(1u << 24) - 0.5f);
+  };
+  for (Vec3& p : mesh.positions) {
+    const Vec3 q{p.x + jitter(), p.y + jitter(), p.z + jitter()};
+    const float scale = radius / std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+    p = {q.x * scale, q.y * scale, q.z * scale};
+  }
+  return mesh;
+}
+
 TEST(Codec, LatticeSurfacesCodeOnTheLattice) {
   const Mesh sphere = make_lattice_sphere(4, 50.0f, 2.3f);
   EncodeReport report;
@@ -236,14 +254,14 @@ void set_crc(std::vector<uint8_t>& bytes) {
 }
 
 TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
-  // Plain, lattice and tangent-plane geometry.
-  const std::vector<uint8_t> streams[3] = {
-      small_stream(), small_lattice_stream(),
-      test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
-                       "/tests/data/golden/pelvis_half_b14_v3.ostm")};
+  // Plain, lattice, tangent-plane and apex-weighted geometry.
+  const std::string golden = std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/";
+  const std::vector<uint8_t> streams[4] = {
+      small_stream(), small_lattice_stream(), test::read_bytes(golden + "pelvis_half_b14_v4.ostm"),
+      test::read_bytes(golden + "jittered_sphere_b14_v4.ostm")};
   std::mt19937 rng(7);
-  for (int trial = 0; trial < 6000; ++trial) {
-    std::vector<uint8_t> copy = streams[trial % 3];
+  for (int trial = 0; trial < 8000; ++trial) {
+    std::vector<uint8_t> copy = streams[trial % 4];
     int flips = 1 + trial % 4;
     for (int f = 0; f < flips; ++f) {
       size_t i = 60 + rng() % (copy.size() - 64);  // inside the sections
@@ -277,15 +295,16 @@ TEST(Codec, HeaderErrorsAreNamed) {
 }
 
 // The geometry section's mode byte: tangent-plane prediction (bit 1) exists from version 3 on,
-// and only with plain residuals, not lattice coding.
+// and only with plain residuals, not lattice coding; the apex weight (bits 2 to 5) from version 4
+// on, and up to 8 eighths.
 TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   auto geometry_mode = [](std::vector<uint8_t>& bytes) -> uint8_t& {
     uint32_t connectivity = 0;
     std::memcpy(&connectivity, bytes.data() + 48, 4);
     return bytes[60 + connectivity];
   };
-  std::vector<uint8_t> plane =
-      test::read_bytes(std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/pelvis_half_b14_v3.ostm");
+  std::vector<uint8_t> plane = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
+                                                "/tests/data/golden/pelvis_half_b14_v4.ostm");
   ASSERT_GT(plane.size(), 64u);
   ASSERT_EQ(geometry_mode(plane), 2);
   ASSERT_TRUE(decode(plane.data(), plane.size()).ok());
@@ -295,13 +314,30 @@ TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   EXPECT_NE(decode(old.data(), old.size()).status().message().find("unknown prediction mode"),
             std::string::npos);
   std::vector<uint8_t> unknown = plane;
-  geometry_mode(unknown) = 4;
+  geometry_mode(unknown) = 0x40;
   set_crc(unknown);
-  EXPECT_NE(decode(unknown.data(), unknown.size()).status().message().find("unknown prediction mode"),
+  EXPECT_NE(
+      decode(unknown.data(), unknown.size()).status().message().find("unknown prediction mode"),
+      std::string::npos);
+  std::vector<uint8_t> apex = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
+                                               "/tests/data/golden/jittered_sphere_b14_v4.ostm");
+  ASSERT_GT(apex.size(), 64u);
+  ASSERT_GE(geometry_mode(apex) >> 2, 1);
+  ASSERT_TRUE(decode(apex.data(), apex.size()).ok());
+  std::vector<uint8_t> apex_v3 = apex;
+  apex_v3[4] = 3;  // version 3 has no apex weight
+  set_crc(apex_v3);
+  EXPECT_NE(
+      decode(apex_v3.data(), apex_v3.size()).status().message().find("unknown prediction mode"),
+      std::string::npos);
+  std::vector<uint8_t> heavy = apex;
+  geometry_mode(heavy) = static_cast<uint8_t>((geometry_mode(heavy) & 3) | 9 << 2);  // 9 eighths
+  set_crc(heavy);
+  EXPECT_NE(decode(heavy.data(), heavy.size()).status().message().find("unknown prediction mode"),
             std::string::npos);
   std::vector<uint8_t> lattice = small_lattice_stream();
-  ASSERT_EQ(geometry_mode(lattice), 0);
-  geometry_mode(lattice) = 2;  // the tangent plane with lattice coding
+  ASSERT_EQ(geometry_mode(lattice) & 3, 0);
+  geometry_mode(lattice) |= 2;  // the tangent plane with lattice coding
   set_crc(lattice);
   EXPECT_NE(decode(lattice.data(), lattice.size()).status().message().find("bad lattice period"),
             std::string::npos);
@@ -408,8 +444,9 @@ namespace codec_test {
 // stream version and regenerates them with OSTEON_WRITE_GOLDEN=1.
 struct Golden {
   const char* file;
-  const char*
-      part;  // a phantom part (detail 1, seed 1), or nullptr: make_lattice_sphere(2, 10, 1.3)
+  // A phantom part (detail 1, seed 1); nullptr: make_lattice_sphere(2, 10, 1.3); "jittered":
+  // make_jittered_sphere(3, 10, 0.8).
+  const char* part;
   int bits;
   bool normals;
   // Below 1: the part simplified to this share of its triangles (meshopt_simplify), whose
@@ -418,16 +455,17 @@ struct Golden {
   int detail = 1;  // the phantom's
 };
 constexpr Golden kGoldens[] = {
-    {"vertebra_l1_b12_v3.ostm", "vertebra_l1", 12, false},  // genus 1
-    {"pelvis_b14_v3.ostm", "pelvis", 14, false},            // 4 holes
-    {"scapula_l_b10_v3.ostm", "scapula_l", 10, false},      // non-manifold edges
-    {"femur_r_b16_normals_v3.ostm", "femur_r", 16, true},   // mirrored copy, normals sent
-    {"lattice_sphere_b14_v3.ostm", nullptr, 14, false},     // coded on a voxel lattice
-    {"rib_l1_half_b14_v3.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
-    {"pelvis_half_b14_v3.ostm", "pelvis", 14, false, 0.5f},  // tangent plane, mean
+    {"vertebra_l1_b12_v4.ostm", "vertebra_l1", 12, false},      // genus 1
+    {"pelvis_b14_v4.ostm", "pelvis", 14, false},                // 4 holes
+    {"scapula_l_b10_v4.ostm", "scapula_l", 10, false},          // non-manifold edges
+    {"femur_r_b16_normals_v4.ostm", "femur_r", 16, true},       // mirrored copy, normals sent
+    {"lattice_sphere_b14_v4.ostm", nullptr, 14, false},         // voxel lattice, apex weight
+    {"rib_l1_half_b14_v4.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
+    {"pelvis_half_b14_v4.ostm", "pelvis", 14, false, 0.5f},     // tangent plane, mean
+    {"jittered_sphere_b14_v4.ostm", "jittered", 14, false},     // apex weight
 };
 // Streams of earlier versions, frozen before the next: version 1 of the first four, version 2
-// of all five.
+// of the first five, version 3 of the first seven.
 struct OlderGolden {
   Golden golden;
   uint8_t version;
@@ -442,6 +480,13 @@ constexpr OlderGolden kOlderGoldens[] = {
     {{"scapula_l_b10_v2.ostm", "scapula_l", 10, false}, 2},
     {{"femur_r_b16_normals_v2.ostm", "femur_r", 16, true}, 2},
     {{"lattice_sphere_b14_v2.ostm", nullptr, 14, false}, 2},
+    {{"vertebra_l1_b12_v3.ostm", "vertebra_l1", 12, false}, 3},
+    {{"pelvis_b14_v3.ostm", "pelvis", 14, false}, 3},
+    {{"scapula_l_b10_v3.ostm", "scapula_l", 10, false}, 3},
+    {{"femur_r_b16_normals_v3.ostm", "femur_r", 16, true}, 3},
+    {{"lattice_sphere_b14_v3.ostm", nullptr, 14, false}, 3},
+    {{"rib_l1_half_b14_v3.ostm", "rib_l1", 14, false, 0.5f, 2}, 3},
+    {{"pelvis_half_b14_v3.ostm", "pelvis", 14, false, 0.5f}, 3},
 };
 
 std::string golden_dir() {
@@ -450,9 +495,11 @@ std::string golden_dir() {
 
 const Mesh* golden_mesh(const Phantom& detail_1, const Golden& g) {
   static const Mesh lattice_sphere = make_lattice_sphere(2, 10.0f, 1.3f);
+  static const Mesh jittered_sphere = make_jittered_sphere(3, 10.0f, 0.8f);
   static const Phantom detail_2 = make_phantom({.seed = 1, .detail = 2});
   static std::vector<std::unique_ptr<Mesh>> simplified;
   if (g.part == nullptr) return &lattice_sphere;
+  if (std::string(g.part) == "jittered") return &jittered_sphere;
   for (const Mesh& m : (g.detail == 2 ? detail_2 : detail_1).scene.parts) {
     if (m.name != g.part) continue;
     if (g.kept >= 1) return &m;
@@ -460,8 +507,8 @@ const Mesh* golden_mesh(const Phantom& detail_1, const Golden& g) {
     s->normals.clear();
     const size_t target = static_cast<size_t>(double(m.indices.size()) * g.kept) / 3 * 3;
     s->indices.resize(meshopt_simplify(s->indices.data(), m.indices.data(), m.indices.size(),
-                                       &m.positions[0].x, m.positions.size(), sizeof(Vec3),
-                                       target, 1.0f, 0, nullptr));
+                                       &m.positions[0].x, m.positions.size(), sizeof(Vec3), target,
+                                       1.0f, 0, nullptr));
     simplified.push_back(std::move(s));
     return simplified.back().get();
   }
@@ -500,10 +547,19 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
     if (g.detail == 2) {
       EXPECT_EQ(report.prediction_mode, 3) << "the first parallelogram only";
     }
+    // The spheres' triangles are near-equilateral: the apex (the lattice sphere's with lattice
+    // coding); the phantom's bones have none.
+    if (g.part == nullptr) {
+      EXPECT_GE(report.prediction_mode >> 2, 1) << "an apex weight";
+    } else if (std::string(g.part) == "jittered") {
+      EXPECT_EQ(report.prediction_mode >> 2, 8) << "the apex alone";
+    } else {
+      EXPECT_EQ(report.prediction_mode >> 2, 0) << "no apex";
+    }
   }
 }
 
-// The decoder keeps reading versions 1 and 2, to the very mesh the current stream of the same
+// The decoder keeps reading versions 1 to 3, to the very mesh the current stream of the same
 // part decodes to (the versions share the grid; they differ in how they predict and code it).
 TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});

@@ -16,8 +16,9 @@
 namespace osteon {
 
 /// The .ostm stream version encode() writes; decode() reads versions 1 to this one
-/// (docs/FORMAT.md). A package's manifest records it, so a reader can refuse newer streams up front.
-inline constexpr int kStreamVersion = 3;
+/// (docs/FORMAT.md). A package's manifest records it, so a reader can refuse newer streams up
+/// front.
+inline constexpr int kStreamVersion = 4;
 
 /// A quantization grid: position p is stored as round((p - origin) / step) per axis. Several
 /// parts encoded with the same grid meet without cracks where their vertices coincide.
@@ -62,7 +63,8 @@ struct EncodeReport {
   double geometry_bits_per_vertex = 0;
   double max_error = 0;  ///< largest per-coordinate |decoded - input| over all vertices
   /// The geometry section's prediction mode (docs/FORMAT.md): bit 0 set for the first
-  /// parallelogram only (else the mean of all), bit 1 for tangent-plane prediction.
+  /// parallelogram only (else the mean of all), bit 1 for tangent-plane prediction, bits 2 to 5
+  /// the apex weight in eighths (0: the parallelogram alone).
   uint8_t prediction_mode = 0;
   double grid_step = 0;
   QuantizationGrid grid;

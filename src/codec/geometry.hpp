@@ -25,18 +25,27 @@ struct QuantizedPositions {
   std::vector<int32_t> xyz;  ///< 3 per vertex
 };
 
+/// std::llround(x) without the library call: x truncated toward zero, then moved one step where
+/// the rest is half or more. Exact for |x| < 2^62: x - trunc(x) is exact in double.
+inline int64_t round_half_away(double x) {
+  const int64_t whole = static_cast<int64_t>(x);
+  const double rest = x - static_cast<double>(whole);
+  return whole + (rest >= 0.5 ? 1 : 0) - (rest <= -0.5 ? 1 : 0);
+}
+
 QuantizedPositions quantize(const std::vector<Vec3>& positions, const QuantizationGrid& grid);
 std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid& grid);
 
 /// Encodes quantized positions (in decoded vertex order) given the decoded triangles' newest
 /// triangles: vertices in id order are predicted by the average of all parallelograms available
-/// across already-decoded triangles (the paper's eq. (1)), else by decoded neighbours, else by
-/// the previous vertex; residuals are entropy-coded. `lattice` is the grid's
-/// QuantizationGrid::lattice (0: none); the encoder codes on that lattice when its estimate says
-/// that is smaller. Appends the version-2 geometry section (docs/FORMAT.md) to `out`. O(V + T).
+/// across already-decoded triangles (the paper's eq. (1)), each blended with the apex of an
+/// equilateral triangle where that pays, else by decoded neighbours, else by the previous vertex;
+/// residuals are entropy-coded. `lattice` is the grid's QuantizationGrid::lattice (0: none); the
+/// encoder codes on that lattice when its estimate says that is smaller. Appends the current
+/// version's geometry section (docs/FORMAT.md) to `out`. O(V + T).
 void encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q, uint32_t lattice,
                      std::vector<uint8_t>* out);
-/// Decodes a geometry section of stream `version` (1 or 2), for `vertex_count` vertices. `newest`
+/// Decodes a geometry section of stream `version` (1 to 4), for `vertex_count` vertices. `newest`
 /// is decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
 /// each neighbour before the vertex it is filed under, each o too or kNoVertexId). Errors name
 /// `source` and the byte offset. O(V + T); allocates O(V) beyond the result.

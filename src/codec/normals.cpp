@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "codec/code_placement.hpp"
 #include "codec/entropy.hpp"
 #include "codec/residual.hpp"
 
@@ -38,8 +39,8 @@ Octahedral octahedral_encode(double x, double y, double z, int bits) {
     y = oy;
   }
   const double scale = double((1u << bits) - 1);
-  return {uint32_t(std::lround((x * 0.5 + 0.5) * scale)),
-          uint32_t(std::lround((y * 0.5 + 0.5) * scale))};
+  return {uint32_t(round_half_away((x * 0.5 + 0.5) * scale)),
+          uint32_t(round_half_away((y * 0.5 + 0.5) * scale))};
 }
 
 // The area-weighted normal of every vertex of the quantized surface, octahedrally coded.
@@ -111,8 +112,10 @@ void encode_normals(const std::vector<uint32_t>& indices, const QuantizedPositio
   enc.append_to(out);
 }
 
-Result<std::vector<Vec3>> decode_normals(ByteReader& in, const std::vector<uint32_t>& indices,
-                                         const QuantizedPositions& q, const std::string& source) {
+OSTEON_COLD_FUNCTION Result<std::vector<Vec3>> decode_normals(ByteReader& in,
+                                                              const std::vector<uint32_t>& indices,
+                                                              const QuantizedPositions& q,
+                                                              const std::string& source) {
   uint8_t bits = 0;
   if (!in.read_le(&bits) || bits < 8 || bits > 16) {
     return error(ErrorCode::kInvalidData, source, "normals: bits per component must be 8..16",

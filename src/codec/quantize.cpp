@@ -196,18 +196,6 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
 
 namespace detail {
 
-namespace {
-
-/// std::llround(x) without the library call: x truncated toward zero, then moved one step where
-/// the rest is half or more. Exact for |x| < 2^62: x - trunc(x) is exact in double.
-inline int64_t round_half_away(double x) {
-  const int64_t whole = static_cast<int64_t>(x);
-  const double rest = x - static_cast<double>(whole);
-  return whole + (rest >= 0.5 ? 1 : 0) - (rest <= -0.5 ? 1 : 0);
-}
-
-}  // namespace
-
 QuantizedPositions quantize(const std::vector<Vec3>& positions, const QuantizationGrid& grid) {
   QuantizedPositions q;
   q.xyz.resize(positions.size() * 3);

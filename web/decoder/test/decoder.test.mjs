@@ -40,6 +40,8 @@ const kRealMeshes = [
   'stity__spl-abdominal-atlas/Data/Model_691_Rib11.vtk',
   'cearto__zen__MeshsegBenchmark/data/off/101.off',
   'ingvilddevold__muscle-growth/data/VHF_surfaces/Left/VHF_Left_Cartilage_Talus_smooth.stl',
+  // A smoothed isosurface's near-equilateral triangles: the apex prediction (stream version 4).
+  'ingvilddevold__muscle-growth/data/VHF_surfaces/Left/VHF_Left_Bone_Navicular_smooth.stl',
 ];
 const kTimedMeshes = ['ct-like/hip_mcs.ply', 'ct-like/skull_mc.ply'];
 
