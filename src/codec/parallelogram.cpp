@@ -157,11 +157,12 @@ inline uint64_t magnitude(uint64_t x) {
   return x >> 63 ? 0 - x : x;
 }
 
-/// floor(sqrt(x)) for x <= 9 * 2^60 (what blend_apex asks; no square below overflows), exactly:
-/// the floating-point root is within one of it (x rounds to 53 bits, the root to 52), and one
-/// step each way corrects it, so the result is the same wherever the root rounds differently.
-inline uint64_t isqrt(uint64_t x) {
-  uint64_t r = static_cast<uint64_t>(std::sqrt(static_cast<double>(x)));
+/// floor(sqrt(x)) for 0 <= x < 2^62, exactly: the floating-point root is within one of it (x
+/// rounds to 53 bits, the root to 52), and one step each way corrects it, so the result is the
+/// same wherever the root rounds differently. Signed conversions: WebAssembly's unsigned ones
+/// take several instructions.
+inline int64_t isqrt(int64_t x) {
+  int64_t r = static_cast<int64_t>(std::sqrt(static_cast<double>(x)));
   r -= r * r > x ? 1 : 0;
   r += (r + 1) * (r + 1) <= x ? 1 : 0;
   return r;
@@ -169,6 +170,8 @@ inline uint64_t isqrt(uint64_t x) {
 
 /// The apex prediction's weight is in eighths (stream version 4): kApexWeights values, 0 to 8.
 constexpr uint32_t kApexWeights = 9;
+/// floor(sqrt(3) 2^45), the apex's height over its edge in fixed point.
+constexpr int64_t kRootThree = 60941120090265;
 
 /// One parallelogram's prediction for stream version 4, with the apex weight a (1 to 8, in
 /// eighths): (8 - a) eighths of the parallelogram n + p - o, and a eighths of the apex of the
@@ -176,13 +179,11 @@ constexpr uint32_t kApexWeights = 9;
 /// Regular meshes (smoothed isosurfaces) have near-equilateral triangles, where the apex misses
 /// less than copying o's triangle. In integers, so that every platform predicts the same:
 ///   e = p - n, t = n + p - 2o, both shifted right by s until every component fits 15 bits;
-///   u = t (e.e) - (t.e) e, t's part across e, scaled to 31 bits (31 - bit width of its largest
-///   component: a left shift, or a right one);
-///   ratio = floor(isqrt(3 e.e 2^30) 2^30 / max(1, isqrt(u.u))), isqrt(x) = floor(sqrt(x));
-///   2d = floor((u ratio + 2^44) / 2^45) 2^s: twice the apex's offset from the edge's midpoint,
-///   sqrt(3) |e| along u;
+///   c = t x e, the triangle's normal, scaled so that its largest component has 30 bits;
+///   2d = floor(((e x c) floor(kRootThree / isqrt(c.c)) + 2^44) / 2^45) 2^s: twice the apex's
+///   offset from the edge's midpoint, sqrt(3) |e| across the edge, in the triangle's plane;
 ///   value = floor(((8 - a) 2 (n + p - o) + a (n + p + 2d) + 8) / 16), clamped to +-(2^33 - 1).
-/// Without an apex (u zero: o on the line through n and p) the apex is the edge's midpoint.
+/// Without a triangle (c zero: o on the line through n and p) the apex is the edge's midpoint.
 inline void blend_apex(const int32_t* n, const int32_t* p, const int32_t* o, uint32_t apex,
                        int64_t value[3]) {
   int64_t e[3], t[3];
@@ -197,26 +198,18 @@ inline void blend_apex(const int32_t* n, const int32_t* p, const int32_t* o, uin
     e[k] >>= s;
     t[k] >>= s;
   }
-  const int64_t ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
-  const int64_t te = t[0] * e[0] + t[1] * e[1] + t[2] * e[2];
-  int64_t u[3];
-  uint64_t across = 0;
-  for (int k = 0; k < 3; ++k) {
-    u[k] = t[k] * ee - te * e[k];
-    across |= magnitude(uint64_t(u[k]));
-  }
-  const int width = static_cast<int>(std::bit_width(across));
-  for (int k = 0; k < 3; ++k) {
-    u[k] = width > 31 ? u[k] >> (width - 31) : u[k] * (int64_t{1} << (31 - width));
-  }
-  const uint64_t length =
-      isqrt(uint64_t(u[0] * u[0]) + uint64_t(u[1] * u[1]) + uint64_t(u[2] * u[2]));
-  const uint64_t root = isqrt(3 * uint64_t(ee) << 30);
-  const int64_t ratio = static_cast<int64_t>((root << 30) / std::max<uint64_t>(length, 1));
+  int64_t c[3] = {t[1] * e[2] - t[2] * e[1], t[2] * e[0] - t[0] * e[2], t[0] * e[1] - t[1] * e[0]};
+  const int width = static_cast<int>(std::bit_width(
+      magnitude(uint64_t(c[0])) | magnitude(uint64_t(c[1])) | magnitude(uint64_t(c[2]))));
+  for (int64_t& ck : c) ck = width > 30 ? ck >> (width - 30) : ck * (int64_t{1} << (30 - width));
+  const int64_t ratio =
+      kRootThree / std::max<int64_t>(isqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), 1);
+  const int64_t across[3] = {e[1] * c[2] - e[2] * c[1], e[2] * c[0] - e[0] * c[2],
+                             e[0] * c[1] - e[1] * c[0]};
   constexpr int64_t kLimit = (int64_t{1} << 33) - 1;
   for (int k = 0; k < 3; ++k) {
     const int64_t np = int64_t{n[k]} + p[k];
-    const int64_t apex2 = np + ((u[k] * ratio + (int64_t{1} << 44)) >> 45) * (int64_t{1} << s);
+    const int64_t apex2 = np + ((across[k] * ratio + (int64_t{1} << 44)) >> 45) * (int64_t{1} << s);
     const int64_t blended = ((8 - int64_t{apex}) * 2 * (np - o[k]) + apex * apex2 + 8) >> 4;
     value[k] = std::clamp(blended, -kLimit, kLimit);
   }
