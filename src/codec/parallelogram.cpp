@@ -42,6 +42,12 @@
 // is then predicted on the plane through the prediction with that normal, from the other two
 // axes' residuals (on_tangent_plane), and its residual codes in contexts of its own.
 //
+// The apex weight (stream version 4): each parallelogram may be blended, in eighths, with the
+// apex of the equilateral triangle on its edge (n, p), in the plane of (n, p, o), away from o
+// (blend_apex). A parallelogram copies the shape of o's triangle; where triangles scatter around
+// equilateral (smoothed isosurfaces, raw marching cubes), the apex misses by less. The encoder
+// chooses the weight per mesh (choose_apex).
+//
 // Speed: every triangle has exactly one newest vertex, so grouping each triangle (n, p, o) under
 // its newest vertex (NewestTriangles, which the connectivity decoder builds as it writes the
 // triangles) gives every vertex its parallelograms in one contiguous run: the decoding loop reads
@@ -642,9 +648,9 @@ void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const C
 // their bit lengths, on up to kApexSamples vertices spread over the measured prefix; the weight
 // only blends two predictions, so the two ends (0 and 8 eighths) give every other by
 // interpolation. The apex is kept only where it is estimated to save at least kApexGain of
-// those bits: its prediction costs two integer square roots and a division per parallelogram,
-// in the decoder too, and the estimate promises about twice what coding then saves (on the
-// codec bench's meshes, a 3% estimate saved 0.5 to 2%).
+// those bits: its prediction costs an integer square root and a division per parallelogram, in
+// the decoder too, and the estimate promises about twice what coding then saves (on the codec
+// bench's meshes, a 3% estimate saved 0.5 to 2%).
 constexpr uint32_t kApexSamples = 1024;
 constexpr double kApexGain = 0.03;
 uint32_t choose_apex(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t end,
