@@ -35,16 +35,7 @@ echo "osteon: em++ $(em++ --version 2>/dev/null | sed -n '1s/.*) //p') -> $out"
 emcmake cmake -S . -B "$out/cmake" "${cmake_flags[@]}" >/dev/null
 cmake --build "$out/cmake" --target osteon_decoder_wasm -j "$jobs" ||
   { echo "osteon: compiling the decoder failed" >&2; exit 1; }
-# A second binaryen pass over the linked module (emcc's link ran one): 150-200 bytes smaller under
-# gzip, the same speed. wasm-opt is binaryen's, which Debian's emscripten depends on.
-wasm_opt="$(command -v wasm-opt || true)"
-if [ -n "$wasm_opt" ]; then
-  "$wasm_opt" -O3 --enable-bulk-memory --enable-nontrapping-float-to-int \
-    "$out/cmake/osteon_decoder.wasm" -o "$out/osteon_decoder.wasm"
-else
-  echo "osteon: wasm-opt not found (Debian's binaryen): the decoder is not optimised twice" >&2
-  cp "$out/cmake/osteon_decoder.wasm" "$out/osteon_decoder.wasm"
-fi
+cp "$out/cmake/osteon_decoder.wasm" "$out/osteon_decoder.wasm"
 mapfile -t exports < "$out/cmake/osteon_decoder_exports.txt"
 # The JavaScript modules, minified by esbuild (web/package.json; npm ci in web/) the way they ship:
 # each stays its own ES module, imports untouched. Without esbuild they are copied as written.
