@@ -651,7 +651,7 @@ void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const C
 // those bits: its prediction costs an integer square root and a division per parallelogram, in
 // the decoder too, and the estimate promises about twice what coding then saves (on the codec
 // bench's meshes, a 3% estimate saved 0.5 to 2%).
-constexpr uint32_t kApexSamples = 1024;
+constexpr uint32_t kApexSamples = 256;
 constexpr double kApexGain = 0.03;
 uint32_t choose_apex(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t end,
                      int64_t lattice) {
