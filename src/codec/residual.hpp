@@ -3,6 +3,7 @@
 
 #include <cstdint>
 
+#include "codec/code_placement.hpp"
 #include "codec/entropy.hpp"
 
 // How the codec codes a signed prediction residual: zigzag it, send the value itself below 4,
@@ -50,8 +51,9 @@ inline void put_residual_bits(SymbolEncoder& enc, uint32_t symbol, uint64_t z) {
   }
 }
 
-/// The zigzagged value of `symbol` and its raw bits.
-inline uint64_t get_residual(SymbolDecoder& dec, uint32_t symbol) {
+/// The zigzagged value of `symbol` and its raw bits. Only the normals section reads residuals
+/// this way (the geometry decoder reads its three axes' raw bits at once): compiled for size.
+OSTEON_COLD_FUNCTION inline uint64_t get_residual(SymbolDecoder& dec, uint32_t symbol) {
   if (symbol < 4) return symbol;
   int bits = int(symbol - 4) / 2 + 1;  // bit length - 2
   uint64_t rest = bits > 32 ? (dec.get_bits(32) | (uint64_t{dec.get_bits(bits - 32)} << 32))
