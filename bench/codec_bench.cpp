@@ -322,6 +322,10 @@ void merge_wasm(const WasmRun& run, std::vector<Row>& rows) {
          row.osteon.wasm_error);
     for (DracoResult& d : row.draco.level)
       fill(d.stream, d.decoded_triangles, d.wasm_ms, d.wasm_error);
+    MeshoptResult& m = row.meshopt;
+    fill(m.buffers_file, row.triangles, m.v1_wasm_ms, m.v1_error);
+    auto it = by_file.find(m.buffers_file);
+    if (m.v1_error.empty() && it != by_file.end()) m.v1_bytes = it->second->value("bytes", size_t{0});
   }
 }
 
@@ -417,11 +421,11 @@ std::string table(const std::vector<const Row*>& rows) {
 /// Sums over a set of rows (only rows where every codec succeeded, so the sums compare).
 struct Totals {
   size_t meshes = 0, triangles = 0;
-  double osteon = 0, cl7 = 0, cl10 = 0, meshopt = 0;
+  double osteon = 0, cl7 = 0, cl10 = 0, meshopt = 0, meshopt_v1 = 0;
   double osteon_enc = 0, cl7_enc = 0;
   double osteon_dec = 0, cl7_dec = 0;
-  double osteon_wasm = 0, cl7_wasm = 0, cl10_wasm = 0;
-  bool wasm_osteon = true, wasm_draco = true;
+  double osteon_wasm = 0, cl7_wasm = 0, cl10_wasm = 0, meshopt_v1_wasm = 0;
+  bool wasm_osteon = true, wasm_draco = true, wasm_meshopt = true;
 };
 
 bool comparable(const Row& r) {
@@ -439,6 +443,9 @@ Totals totals(const std::vector<const Row*>& rows) {
     t.cl7 += double(r.draco.level[0].bytes);
     t.cl10 += double(r.draco.level[1].bytes);
     t.meshopt += double(r.meshopt.bytes);
+    t.meshopt_v1 += double(r.meshopt.v1_bytes);
+    t.wasm_meshopt = t.wasm_meshopt && r.meshopt.v1_wasm_ms >= 0;
+    t.meshopt_v1_wasm += r.meshopt.v1_wasm_ms;
     t.osteon_enc += r.osteon.encode_ms;
     t.cl7_enc += r.draco.level[0].encode_ms;
     t.osteon_dec += r.osteon.decode_ms;
@@ -454,13 +461,15 @@ Totals totals(const std::vector<const Row*>& rows) {
 
 std::string summary_row(const std::string& label, const Totals& t) {
   std::ostringstream md;
-  if (t.meshes == 0) return "| " + label + " | 0 |" + std::string(13, '|') + "\n";
+  if (t.meshes == 0) return "| " + label + " | 0 |" + std::string(15, '|') + "\n";
   md << "| " << label << " | " << t.meshes << " | " << grouped(t.triangles) << " | " << kb(t.osteon)
      << " | " << kb(t.cl7) << " | " << kb(t.cl10) << " | " << kb(t.meshopt) << " | "
+     << (t.wasm_meshopt ? kb(t.meshopt_v1) : "n/a") << " | "
      << fixed(t.osteon / t.cl10, 3) << " | " << ms_text(t.osteon_enc) << " | " << ms_text(t.cl7_enc)
      << " | " << ms_text(t.osteon_dec) << " | " << ms_text(t.cl7_dec) << " | "
      << (t.wasm_osteon ? ms_text(t.osteon_wasm) : "n/a") << " | "
      << (t.wasm_draco ? ms_text(t.cl7_wasm) + " / " + ms_text(t.cl10_wasm) : "n/a") << " | "
+     << (t.wasm_meshopt ? ms_text(t.meshopt_v1_wasm) : "n/a") << " | "
      << (t.wasm_osteon ? fixed(double(t.triangles) / t.osteon_wasm / 1e3, 1) : "n/a") << " |\n";
   return md.str();
 }
@@ -574,11 +583,15 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
   for (const Row& r : rows)
     if (r.group == "ct-like") ct.push_back(&r);
   md << "### Summary\n\nSums over the meshes every codec coded; Mtri/s is triangles over the "
-        "summed osteon WASM decode time.\n\n"
+        "summed osteon WASM decode time. meshopt 1.x: npm meshoptimizer's newest vertex codec "
+        "(version 1, level 3) and its index codec on the same buffers as the meshopt+gzip "
+        "column, then gzip -9, coded and decoded (gunzip included) in the Node process of the "
+        "WASM columns (bench/codec_wasm.mjs).\n\n"
      << "| set | meshes | triangles | osteon KB | Draco cl7 KB | Draco cl10 KB | meshopt+gzip KB | "
-        "osteon / cl10 | osteon enc ms | Draco cl7 enc ms | osteon dec ms native | Draco cl7 dec "
-        "ms native | osteon dec ms WASM | Draco dec ms WASM cl7 / cl10 | osteon WASM Mtri/s |\n"
-     << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        "meshopt 1.x v1+gzip KB | osteon / cl10 | osteon enc ms | Draco cl7 enc ms | osteon dec ms "
+        "native | Draco cl7 dec ms native | osteon dec ms WASM | Draco dec ms WASM cl7 / cl10 | "
+        "meshopt 1.x dec ms WASM | osteon WASM Mtri/s |\n"
+     << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   if (median)
     md << summary_row("median mesh: " + median->group + " " + median->label, totals({median}));
   for (const Row* r : ct) md << summary_row("ct-like " + r->label, totals({r}));
@@ -873,6 +886,9 @@ int main(int argc, char** argv) {
       row.osteon = run_osteon(*mesh, bits, timing, stem + ".ostm");
       row.draco = run_draco(*mesh, bits, timing, stem);
       row.meshopt = run_meshopt(*mesh, bits, timing);
+      if (write_bytes(stem + ".mvb", row.meshopt.buffers.data(), row.meshopt.buffers.size()))
+        row.meshopt.buffers_file = stem + ".mvb";
+      row.meshopt.buffers = {};
       rows.push_back(std::move(row));
     }
   }
@@ -886,6 +902,7 @@ int main(int argc, char** argv) {
       if (!r.osteon.stream.empty()) streams.push_back(r.osteon.stream);
       for (const DracoResult& d : r.draco.level)
         if (!d.stream.empty()) streams.push_back(d.stream);
+      if (!r.meshopt.buffers_file.empty()) streams.push_back(r.meshopt.buffers_file);
     }
     std::fprintf(stderr,
                  "codec_bench: WASM decoders (node bench/codec_wasm.mjs, %zu streams) ...\n",
@@ -930,6 +947,9 @@ int main(int argc, char** argv) {
                            {"encode_ms", r.meshopt.encode_ms},
                            {"decode_ms", r.meshopt.decode_ms},
                            {"max_error", r.meshopt.max_error}};
+      j["meshopt_v1_gzip"] = {{"error", r.meshopt.v1_error},
+                              {"bytes", r.meshopt.v1_bytes},
+                              {"wasm_decode_ms", r.meshopt.v1_wasm_ms}};
       out.push_back(j);
     }
     json doc = {{"bits", bits}, {"clock", clock}, {"rows", out}, {"targets", report.targets}};
@@ -954,7 +974,10 @@ int main(int argc, char** argv) {
     std::string node_line;
     if (wasm.unavailable.empty())
       node_line = "Node " + wasm.report.value("node", std::string("?")) + ", npm draco3d " +
-                  wasm.report["draco3d"].value("version", std::string("not installed")) + ". ";
+                  wasm.report["draco3d"].value("version", std::string("not installed")) +
+                  ", npm meshoptimizer " +
+                  wasm.report["meshoptimizer"].value("version", std::string("not installed")) +
+                  ". ";
     std::ostringstream body;
     body << "osteon against Draco " << draco::kDracoVersion
          << " (libdraco-dev, in-process, compression levels 7 and 10, positions only) and "

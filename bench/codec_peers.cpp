@@ -209,6 +209,14 @@ MeshoptResult run_meshopt(const osteon::Mesh& mesh, int bits, const Timing& timi
         meshopt_encodeVertexBuffer(vbuf.data(), vbuf.size(), vertices.data(), unique, stride));
     std::vector<uint8_t> ibuf(meshopt_encodeIndexBufferBound(index_count, unique));
     ibuf.resize(meshopt_encodeIndexBuffer(ibuf.data(), ibuf.size(), indices.data(), index_count));
+    if (r.buffers.empty()) {  // once: the best of the timed runs is one without this copy
+      const uint32_t sizes[3] = {uint32_t(unique), uint32_t(index_count), uint32_t(stride)};
+      r.buffers.resize(12);
+      std::memcpy(r.buffers.data(), sizes, 12);
+      r.buffers.insert(r.buffers.end(), vertices.begin(), vertices.end());
+      const auto* index_bytes = reinterpret_cast<const uint8_t*>(indices.data());
+      r.buffers.insert(r.buffers.end(), index_bytes, index_bytes + 4 * index_count);
+    }
     std::vector<uint8_t> raw(12);
     uint32_t header[3] = {uint32_t(unique), uint32_t(index_count), uint32_t(vbuf.size())};
     std::memcpy(raw.data(), header, 12);

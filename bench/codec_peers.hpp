@@ -75,6 +75,15 @@ struct MeshoptResult {
   size_t bytes = 0;
   double encode_ms = 0, decode_ms = 0;
   double max_error = 0;
+  /// The buffers both meshoptimizer columns code: u32 vertex count, u32 index count, u32 stride,
+  /// the quantized vertices, the u32 indices (after vertex cache and fetch optimisation).
+  std::vector<uint8_t> buffers;
+  /// meshoptimizer 1.x (npm, through bench/codec_wasm.mjs): where `buffers` was written, the
+  /// gzipped size of its vertex codec v1 + index codec stream, its WebAssembly decode time.
+  std::string buffers_file;
+  size_t v1_bytes = 0;
+  double v1_wasm_ms = -1;
+  std::string v1_error;
 };
 
 /// Draco at both levels, and its position error.

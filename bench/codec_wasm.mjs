@@ -1,12 +1,16 @@
 // SPDX-License-Identifier: Apache-2.0
-// WebAssembly decode times for bench/codec_bench: osteon's decoder (web/decoder/osteon_decoder.mjs)
-// and Draco's (npm draco3d, the version bench/package.json pins), in one Node process.
+// WebAssembly decode times for bench/codec_bench: osteon's decoder (web/decoder/osteon_decoder.mjs),
+// Draco's (npm draco3d) and meshoptimizer 1.x's (npm meshoptimizer, which also codes: below), the
+// versions bench/package.json pins, in one Node process.
 //
 //   node bench/codec_wasm.mjs [--repeat N] [--min-ms MS] [--decoder DIR] FILE...
 //
-// FILE ending in .ostm is decoded by osteon, .drc by Draco. Prints one JSON object:
+// FILE ending in .ostm is decoded by osteon, .drc by Draco, .mvb coded and decoded by
+// meshoptimizer (loadMeshopt). Prints one JSON object:
 //   { node, draco3d: {version} | {unavailable}, osteon: {module} | {unavailable},
-//     results: [{ file, codec, ms, runs, triangles, vertices } | { file, codec, error }] }
+//     meshoptimizer: {version, vertex_codec, level} | {unavailable},
+//     results: [{ file, codec, ms, runs, triangles, vertices[, bytes] } | { file, codec, error }] }
+// (bytes: meshoptimizer's gzipped stream.)
 // A decoder that cannot be loaded leaves its files with `error` and names the reason in
 // `unavailable`. The osteon decoder is the first of --decoder DIR, $OSTEON_WASM_DIR, build/wasm
 // (web/decoder/build.sh's output) and web/decoder that holds osteon_decoder.mjs and .wasm.
@@ -21,6 +25,7 @@
 // like the others, and is usually the slowest.
 
 import { readFile } from 'node:fs/promises';
+import { gunzipSync, gzipSync } from 'node:zlib';
 import { existsSync } from 'node:fs';
 import { createRequire } from 'node:module';
 import { fileURLToPath, pathToFileURL } from 'node:url';
@@ -97,6 +102,88 @@ async function loadDraco() {
   return { version, decode };
 }
 
+/// meshoptimizer 1.x (the npm package bench/package.json pins): a FILE ending in .mvb is the
+/// vertex and index buffers codec_bench hands its meshoptimizer 0.18 column (u32 vertex count,
+/// u32 index count, u32 stride, the quantized vertices, the u32 indices; after vertex cache and
+/// fetch optimisation), coded here with the newest vertex codec (version 1) at its best level (3)
+/// and the index codec, then gzip -9, as a page would fetch it; each decode (gunzip, then the
+/// WebAssembly decoders, with SIMD where Node has it) must give back the very buffers.
+async function loadMeshopt() {
+  const require = createRequire(import.meta.url);
+  let MeshoptEncoder;
+  let MeshoptDecoder;
+  let version;
+  try {
+    ({ MeshoptEncoder } = await import('meshoptimizer/encoder'));
+    ({ MeshoptDecoder } = await import('meshoptimizer/decoder'));
+    // The package's exports leave out package.json: read it beside the resolved entry point.
+    const entry = require.resolve('meshoptimizer');
+    version = JSON.parse(await readFile(path.join(path.dirname(entry), 'package.json'))).version;
+  } catch (e) {
+    const why = e.message.split('\n')[0];
+    return { unavailable: `npm meshoptimizer not installed (cd bench && npm ci): ${why}` };
+  }
+  await MeshoptEncoder.ready;
+  await MeshoptDecoder.ready;
+  const kLevel = 3;
+  const kVertexVersion = 1;
+  function split(raw) {
+    const header = new Uint32Array(raw.buffer, raw.byteOffset, 3);
+    const [vertexCount, indexCount, stride] = header;
+    const vertices = raw.subarray(12, 12 + vertexCount * stride);
+    const indices = raw.subarray(12 + vertexCount * stride, 12 + vertexCount * stride + indexCount * 4);
+    return { vertexCount, indexCount, stride, vertices, indices };
+  }
+  /// The gzipped stream of one .mvb file: a 12-byte header (vertex count, index count, encoded
+  /// vertex bytes), the encoded vertices, the encoded indices.
+  function encode(raw) {
+    const { vertexCount, indexCount, stride, vertices, indices } = split(raw);
+    const vbuf = MeshoptEncoder.encodeVertexBufferLevel(vertices.slice(), vertexCount, stride,
+      kLevel, kVertexVersion);
+    const ibuf = MeshoptEncoder.encodeIndexBuffer(indices.slice(), indexCount, 4);
+    const stream = new Uint8Array(12 + vbuf.length + ibuf.length);
+    new Uint32Array(stream.buffer, 0, 3).set([vertexCount, indexCount, vbuf.length]);
+    stream.set(vbuf, 12);
+    stream.set(ibuf, 12 + vbuf.length);
+    return { stream: gzipSync(stream, { level: 9 }), stride };
+  }
+  function decodeWith(stride) {
+    return (gz) => {
+      const raw = gunzipSync(gz);
+      const [vertexCount, indexCount, vbytes] = new Uint32Array(raw.buffer, raw.byteOffset, 3);
+      const vertices = new Uint8Array(vertexCount * stride);
+      const indices = new Uint32Array(indexCount);
+      MeshoptDecoder.decodeVertexBuffer(vertices, vertexCount, stride, raw.subarray(12, 12 + vbytes));
+      MeshoptDecoder.decodeIndexBuffer(new Uint8Array(indices.buffer), indexCount, 4,
+        raw.subarray(12 + vbytes));
+      return { triangles: indexCount / 3, vertices: vertexCount, decoded: { vertices, indices } };
+    };
+  }
+  function measure(raw, repeat, minMs) {
+    const { stream, stride } = encode(raw);
+    const decode = decodeWith(stride);
+    const original = split(raw);
+    const back = decode(stream).decoded;
+    // The index codec may rotate a triangle's corners (its winding kept): compare up to that.
+    const coded = new Uint32Array(original.indices.slice().buffer);
+    let same = Buffer.compare(Buffer.from(back.vertices), Buffer.from(original.vertices)) === 0 &&
+      back.indices.length === coded.length;
+    for (let t = 0; same && t < coded.length; t += 3) {
+      const [a, b, c] = [coded[t], coded[t + 1], coded[t + 2]];
+      const [x, y, z] = [back.indices[t], back.indices[t + 1], back.indices[t + 2]];
+      same = (x === a && y === b && z === c) || (x === b && y === c && z === a) ||
+        (x === c && y === a && z === b);
+    }
+    if (!same) throw new Error('meshoptimizer: the decoded buffers differ from the coded ones');
+    const timed = timeDecodes((bytes) => {
+      const { triangles, vertices } = decode(bytes);
+      return { triangles, vertices };
+    }, stream, repeat, minMs);
+    return { bytes: stream.length, ...timed };
+  }
+  return { version, measure, level: kLevel, vertexVersion: kVertexVersion };
+}
+
 async function loadOsteon(dir) {
   const dirs = dir ? [dir] : kDecoderDirs;
   const found = dirs.find((d) => existsSync(path.join(d, 'osteon_decoder.mjs')) &&
@@ -140,8 +227,22 @@ async function main() {
   const args = parseOptions();
   const draco = await loadDraco();
   const osteon = await loadOsteon(args.decoder);
+  const meshopt = await loadMeshopt();
   const results = [];
   for (const file of args.files) {
+    if (file.endsWith('.mvb')) {
+      if (meshopt.unavailable) {
+        results.push({ file, codec: 'meshopt', error: meshopt.unavailable });
+        continue;
+      }
+      try {
+        const raw = new Uint8Array(await readFile(file));
+        results.push({ file, codec: 'meshopt', ...meshopt.measure(raw, args.repeat, args.minMs) });
+      } catch (e) {
+        results.push({ file, codec: 'meshopt', error: String(e?.message ?? e) });
+      }
+      continue;
+    }
     const codec = file.endsWith('.drc') ? 'draco' : file.endsWith('.ostm') ? 'osteon' : null;
     const decoder = codec === 'draco' ? draco : codec === 'osteon' ? osteon : null;
     if (!decoder) {
@@ -163,6 +264,8 @@ async function main() {
     node: process.version,
     draco3d: describe(draco, 'version'),
     osteon: describe(osteon, 'module'),
+    meshoptimizer: meshopt.unavailable ? { unavailable: meshopt.unavailable }
+      : { version: meshopt.version, vertex_codec: meshopt.vertexVersion, level: meshopt.level },
     timing: `wall clock (performance.now), best of >= ${args.repeat} decodes, >= ${args.minMs} ms`,
     results,
   };
