@@ -37,8 +37,13 @@ function readPackage(dir) {
   const files = new Map();
   let vertices = 0;
   let triangles = 0;
+  // Package version 3 stores the components' streams in chunk files (manifest.chunks); earlier
+  // versions gave each component its own file.
+  for (const chunk of manifest.chunks ?? []) {
+    files.set(chunk.file, statSync(path.join(dir, chunk.file)).size);
+  }
   for (const c of manifest.components) {
-    files.set(c.file, statSync(path.join(dir, c.file)).size);
+    if (c.file) files.set(c.file, statSync(path.join(dir, c.file)).size);
     vertices += c.vertices;
     triangles += c.triangles;
   }
