@@ -174,8 +174,10 @@ inline int64_t isqrt(int64_t x) {
   return r;
 }
 
-/// The apex prediction's weight is in eighths (stream version 4): kApexWeights values, 0 to 8.
+/// The apex prediction's weight is in eighths (stream version 4): kApexWeights values, 0 to 8,
+/// in the geometry mode byte's bits from kApexShift up (below them, the prediction mode).
 constexpr uint32_t kApexWeights = 9;
+constexpr int kApexShift = 2;
 /// floor(sqrt(3) 2^45), the apex's height over its edge in fixed point.
 constexpr int64_t kRootThree = 60941120090265;
 
@@ -263,19 +265,13 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     const bool use = e->o != kNoVertexId && (mode == kAverageAll || count == 0);
     const int32_t* o = xyz + 3 * size_t{use ? e->o : e->n};
     const int64_t w = use ? 1 : 0;
-    if (apex != 0 && use) {
-      int64_t value[3];
-      blend_apex(n, p, o, apex, value);
-      for (int k = 0; k < 3; ++k) {
-        mid[k] += int64_t{n[k]} + p[k];
-        sum[k] += value[k];
-      }
-    } else {
-      for (int k = 0; k < 3; ++k) {
-        const int64_t np = int64_t{n[k]} + p[k];
-        mid[k] += np;
-        sum[k] += w * (np - o[k]);
-      }
+    const bool blend = apex != 0 && use;
+    int64_t blended[3];
+    if (blend) blend_apex(n, p, o, apex, blended);
+    for (int k = 0; k < 3; ++k) {
+      const int64_t np = int64_t{n[k]} + p[k];
+      mid[k] += np;
+      sum[k] += blend ? blended[k] : w * (np - o[k]);
     }
     count += w;
   }
@@ -663,11 +659,11 @@ uint32_t choose_apex(const NewestTriangles& nt, const QuantizedPositions& q, uin
     const Prediction flat = predict(v, nt, xyz, no_symbols.data(), kAverageAll, 0);
     if (flat.kind > kParallelogram) continue;
     const Prediction apex = predict(v, nt, xyz, no_symbols.data(), kAverageAll, 8);
-    for (uint32_t a = 0; a < kApexWeights; ++a) {
-      for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 3; ++k) {
+      const int64_t c = xyz[3 * size_t{v} + k];
+      const bool on_plane = lattice != 0 && c % lattice == 0;
+      for (uint32_t a = 0; a < kApexWeights; ++a) {
         const int64_t pred = flat.xyz[k] + floor_div((apex.xyz[k] - flat.xyz[k]) * a + 4, 8);
-        const int64_t c = xyz[3 * size_t{v} + k];
-        const bool on_plane = lattice != 0 && c % lattice == 0;
         cost[a] +=
             bit_length(zigzag(on_plane ? c / lattice - nearest_plane(pred, lattice) : c - pred));
       }
@@ -774,7 +770,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   }
   Coding& kept = codings[best];
 
-  out->push_back(static_cast<uint8_t>(kept.mode | apex << 2));
+  out->push_back(static_cast<uint8_t>(kept.mode | apex << kApexShift));
   ByteWriter writer(out);
   writer.write_varint(kept.lattice);
   kept.enc.reserve(size_t{vertex_count - kept.state.next} * symbols_per_vertex(kept.lattice));
@@ -792,13 +788,14 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
                  message("geometry: the connectivity does not have % vertices", {vertex_count}));
   }
   uint8_t mode = 0;
-  if (!in.read_le(&mode) || (mode & 3) >= (version >= 3 ? 2 * kModes : kModes) ||
-      (mode >> 2) >= (version >= 4 ? kApexWeights : 1)) {
+  const bool read = in.read_le(&mode);
+  const uint32_t apex = mode >> kApexShift;
+  mode &= (1u << kApexShift) - 1;
+  if (!read || mode >= (version >= 3 ? 2 * kModes : kModes) ||
+      apex >= (version >= 4 ? kApexWeights : 1)) {
     return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
                  at_byte(in.offset()));
   }
-  const uint32_t apex = mode >> 2;
-  mode &= 3;
   uint64_t lattice = 0;  // version 2: the lattice period, 0 for none
   if (version >= 2 && (!in.read_varint(&lattice) || lattice == 1 || lattice > kMaxLattice ||
                        (lattice != 0 && mode >= kModes))) {
