@@ -49,6 +49,10 @@ TEST(Cli, EncodeJsonReportsThePredictionMode) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
   EXPECT_EQ(j["prediction_mode"].get<int>() & 2, 2) << run.out;
+  // A decimated bone's irregular triangles: a shape that shrinks the parallelogram's offset.
+  ASSERT_TRUE(j["triangle_shape"].is_array() && j["triangle_shape"].size() == 2) << run.out;
+  EXPECT_EQ(j["prediction_mode"].get<int>() & 4, 4) << run.out;
+  EXPECT_LT(j["triangle_shape"][0].get<int>(), 16) << run.out;
 }
 
 TEST(Cli, InfoJsonHasTheDocumentedFields) {

@@ -257,8 +257,8 @@ TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
   // Plain, lattice, tangent-plane and apex-weighted geometry.
   const std::string golden = std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/";
   const std::vector<uint8_t> streams[4] = {
-      small_stream(), small_lattice_stream(), test::read_bytes(golden + "pelvis_half_b14_v4.ostm"),
-      test::read_bytes(golden + "jittered_sphere_b14_v4.ostm")};
+      small_stream(), small_lattice_stream(), test::read_bytes(golden + "pelvis_half_b14_v5.ostm"),
+      test::read_bytes(golden + "jittered_sphere_b14_v5.ostm")};
   std::mt19937 rng(7);
   for (int trial = 0; trial < 8000; ++trial) {
     std::vector<uint8_t> copy = streams[trial % 4];
@@ -295,8 +295,9 @@ TEST(Codec, HeaderErrorsAreNamed) {
 }
 
 // The geometry section's mode byte: tangent-plane prediction (bit 1) exists from version 3 on,
-// and only with plain residuals, not lattice coding; the apex weight (bits 2 to 5) from version 4
-// on, and up to 8 eighths.
+// and only with plain residuals, not lattice coding; the apex weight (bits 2 to 5) in version 4,
+// up to 8 eighths; from version 5 on, bit 2 says that a triangle shape follows, each of its two
+// weights up to 32 sixteenths, and bits 3 to 7 are 0.
 TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   auto geometry_mode = [](std::vector<uint8_t>& bytes) -> uint8_t& {
     uint32_t connectivity = 0;
@@ -304,7 +305,7 @@ TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
     return bytes[60 + connectivity];
   };
   std::vector<uint8_t> plane = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
-                                                "/tests/data/golden/pelvis_half_b14_v4.ostm");
+                                                "/tests/data/golden/pelvis_half_b14_v5.ostm");
   ASSERT_GT(plane.size(), 64u);
   ASSERT_EQ(geometry_mode(plane), 2);
   ASSERT_TRUE(decode(plane.data(), plane.size()).ok());
@@ -319,22 +320,34 @@ TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   EXPECT_NE(
       decode(unknown.data(), unknown.size()).status().message().find("unknown prediction mode"),
       std::string::npos);
-  std::vector<uint8_t> apex = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
-                                               "/tests/data/golden/jittered_sphere_b14_v4.ostm");
+  auto rejected = [](std::vector<uint8_t>& bytes) {
+    set_crc(bytes);
+    return decode(bytes.data(), bytes.size()).status().message().find("unknown prediction mode") !=
+           std::string::npos;
+  };
+  const std::string golden = std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/";
+  std::vector<uint8_t> apex = test::read_bytes(golden + "jittered_sphere_b14_v4.ostm");
   ASSERT_GT(apex.size(), 64u);
   ASSERT_GE(geometry_mode(apex) >> 2, 1);
   ASSERT_TRUE(decode(apex.data(), apex.size()).ok());
   std::vector<uint8_t> apex_v3 = apex;
   apex_v3[4] = 3;  // version 3 has no apex weight
-  set_crc(apex_v3);
-  EXPECT_NE(
-      decode(apex_v3.data(), apex_v3.size()).status().message().find("unknown prediction mode"),
-      std::string::npos);
+  EXPECT_TRUE(rejected(apex_v3));
   std::vector<uint8_t> heavy = apex;
   geometry_mode(heavy) = static_cast<uint8_t>((geometry_mode(heavy) & 3) | 9 << 2);  // 9 eighths
-  set_crc(heavy);
-  EXPECT_NE(decode(heavy.data(), heavy.size()).status().message().find("unknown prediction mode"),
-            std::string::npos);
+  EXPECT_TRUE(rejected(heavy));
+  std::vector<uint8_t> shape = test::read_bytes(golden + "jittered_sphere_b14_v5.ostm");
+  ASSERT_GT(shape.size(), 64u);
+  ASSERT_EQ(geometry_mode(shape) & 4, 4);
+  ASSERT_TRUE(decode(shape.data(), shape.size()).ok());
+  std::vector<uint8_t> unknown_bit = shape;
+  geometry_mode(unknown_bit) |= 8;
+  EXPECT_TRUE(rejected(unknown_bit));
+  for (int weight = 0; weight < 2; ++weight) {
+    std::vector<uint8_t> too_heavy = shape;
+    (&geometry_mode(too_heavy))[1 + weight] = 33;  // 33 sixteenths
+    EXPECT_TRUE(rejected(too_heavy)) << weight;
+  }
   std::vector<uint8_t> lattice = small_lattice_stream();
   ASSERT_EQ(geometry_mode(lattice) & 3, 0);
   geometry_mode(lattice) |= 2;  // the tangent plane with lattice coding
@@ -455,17 +468,17 @@ struct Golden {
   int detail = 1;  // the phantom's
 };
 constexpr Golden kGoldens[] = {
-    {"vertebra_l1_b12_v4.ostm", "vertebra_l1", 12, false},      // genus 1
-    {"pelvis_b14_v4.ostm", "pelvis", 14, false},                // 4 holes
-    {"scapula_l_b10_v4.ostm", "scapula_l", 10, false},          // non-manifold edges
-    {"femur_r_b16_normals_v4.ostm", "femur_r", 16, true},       // mirrored copy, normals sent
-    {"lattice_sphere_b14_v4.ostm", nullptr, 14, false},         // voxel lattice, apex weight
-    {"rib_l1_half_b14_v4.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
-    {"pelvis_half_b14_v4.ostm", "pelvis", 14, false, 0.5f},     // tangent plane, mean
-    {"jittered_sphere_b14_v4.ostm", "jittered", 14, false},     // apex weight
+    {"vertebra_l1_b12_v5.ostm", "vertebra_l1", 12, false},      // genus 1
+    {"pelvis_b14_v5.ostm", "pelvis", 14, false},                // 4 holes
+    {"scapula_l_b10_v5.ostm", "scapula_l", 10, false},          // non-manifold edges
+    {"femur_r_b16_normals_v5.ostm", "femur_r", 16, true},       // mirrored copy, normals sent
+    {"lattice_sphere_b14_v5.ostm", nullptr, 14, false},         // voxel lattice, the apex
+    {"rib_l1_half_b14_v5.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
+    {"pelvis_half_b14_v5.ostm", "pelvis", 14, false, 0.5f},     // tangent plane, mean
+    {"jittered_sphere_b14_v5.ostm", "jittered", 14, false},     // the apex
 };
 // Streams of earlier versions, frozen before the next: version 1 of the first four, version 2
-// of the first five, version 3 of the first seven.
+// of the first five, version 3 of the first seven, version 4 of all eight.
 struct OlderGolden {
   Golden golden;
   uint8_t version;
@@ -487,6 +500,14 @@ constexpr OlderGolden kOlderGoldens[] = {
     {{"lattice_sphere_b14_v3.ostm", nullptr, 14, false}, 3},
     {{"rib_l1_half_b14_v3.ostm", "rib_l1", 14, false, 0.5f, 2}, 3},
     {{"pelvis_half_b14_v3.ostm", "pelvis", 14, false, 0.5f}, 3},
+    {{"vertebra_l1_b12_v4.ostm", "vertebra_l1", 12, false}, 4},
+    {{"pelvis_b14_v4.ostm", "pelvis", 14, false}, 4},
+    {{"scapula_l_b10_v4.ostm", "scapula_l", 10, false}, 4},
+    {{"femur_r_b16_normals_v4.ostm", "femur_r", 16, true}, 4},
+    {{"lattice_sphere_b14_v4.ostm", nullptr, 14, false}, 4},
+    {{"rib_l1_half_b14_v4.ostm", "rib_l1", 14, false, 0.5f, 2}, 4},
+    {{"pelvis_half_b14_v4.ostm", "pelvis", 14, false, 0.5f}, 4},
+    {{"jittered_sphere_b14_v4.ostm", "jittered", 14, false}, 4},
 };
 
 std::string golden_dir() {
@@ -547,19 +568,18 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
     if (g.detail == 2) {
       EXPECT_EQ(report.prediction_mode, 3) << "the first parallelogram only";
     }
-    // The spheres' triangles are near-equilateral: the apex (the lattice sphere's with lattice
-    // coding); the phantom's bones have none.
-    if (g.part == nullptr) {
-      EXPECT_GE(report.prediction_mode >> 2, 1) << "an apex weight";
-    } else if (std::string(g.part) == "jittered") {
-      EXPECT_EQ(report.prediction_mode >> 2, 8) << "the apex alone";
-    } else {
-      EXPECT_EQ(report.prediction_mode >> 2, 0) << "no apex";
+    const bool plain = report.shape_scale == 16 && report.shape_apex == 0;
+    EXPECT_EQ((report.prediction_mode & 4) != 0, !plain) << "mode bit 2: a triangle shape";
+    // The spheres' triangles are near-equilateral: mostly the apex (the lattice sphere's with
+    // lattice coding), little of the parallelogram's offsets.
+    if (g.part == nullptr || std::string(g.part) == "jittered") {
+      EXPECT_GE(report.shape_apex, 8) << "the apex";
+      EXPECT_LT(report.shape_scale, 8);
     }
   }
 }
 
-// The decoder keeps reading versions 1 to 3, to the very mesh the current stream of the same
+// The decoder keeps reading versions 1 to 4, to the very mesh the current stream of the same
 // part decodes to (the versions share the grid; they differ in how they predict and code it).
 TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});

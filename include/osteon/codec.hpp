@@ -18,7 +18,7 @@ namespace osteon {
 /// The .ostm stream version encode() writes; decode() reads versions 1 to this one
 /// (docs/FORMAT.md). A package's manifest records it, so a reader can refuse newer streams up
 /// front.
-inline constexpr int kStreamVersion = 4;
+inline constexpr int kStreamVersion = 5;
 
 /// A quantization grid: position p is stored as round((p - origin) / step) per axis. Several
 /// parts encoded with the same grid meet without cracks where their vertices coincide.
@@ -63,9 +63,14 @@ struct EncodeReport {
   double geometry_bits_per_vertex = 0;
   double max_error = 0;  ///< largest per-coordinate |decoded - input| over all vertices
   /// The geometry section's prediction mode (docs/FORMAT.md): bit 0 set for the first
-  /// parallelogram only (else the mean of all), bit 1 for tangent-plane prediction, bits 2 to 5
-  /// the apex weight in eighths (0: the parallelogram alone).
+  /// parallelogram only (else the mean of all), bit 1 for tangent-plane prediction, bit 2 when
+  /// the triangle shape below is not the plain parallelogram.
   uint8_t prediction_mode = 0;
+  /// The triangle shape each parallelogram places its vertex with, in sixteenths (docs/FORMAT.md,
+  /// "value(n, p, o)"): the share of the parallelogram's offset from its edge's midpoint, and the
+  /// equilateral apex's share. {16, 0} is the plain parallelogram.
+  int shape_scale = 16;
+  int shape_apex = 0;
   double grid_step = 0;
   QuantizationGrid grid;
 };

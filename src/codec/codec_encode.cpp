@@ -132,6 +132,10 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     r.connectivity_bytes = connectivity.bytes.size();
     r.geometry_bytes = geometry.size();
     r.prediction_mode = geometry.empty() ? 0 : geometry[0];
+    if ((r.prediction_mode & 4) != 0) {  // the shape's two weights follow the mode byte
+      r.shape_scale = geometry[1];
+      r.shape_apex = geometry[2];
+    }
     r.normal_bytes = normals.size();
     r.vertices = vertex_count;
     r.triangles = mesh.triangle_count();

@@ -339,8 +339,11 @@ OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_
   out->indices.resize(wanted);
   uint32_t* indices = out->indices.data();
   NewestTriangles& newest = out->newest;
-  newest.first.assign(size_t{vertex_count} + 2, 0);
-  newest.neighbour.assign(vertex_count, kNoVertexId);
+  // clear() then resize() rather than assign(): the decoder's download holds one fewer function.
+  newest.first.clear();
+  newest.first.resize(size_t{vertex_count} + 2);
+  newest.neighbour.resize(vertex_count);
+  std::fill(newest.neighbour.begin(), newest.neighbour.end(), kNoVertexId);
   uint32_t* first = newest.first.data();
   uint32_t* neighbour = newest.neighbour.data();
   size_t written = 0;
@@ -470,12 +473,16 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
                                                                      uint32_t triangle_count,
                                                                      const std::string& source) {
   size_t at = in.offset();
-  auto bad = [&](const std::string& what) {
-    return error(ErrorCode::kInvalidData, source, "connectivity: " + what, at_byte(at));
+  // "connectivity: " + first + second, by appends (fewer functions in the decoder's download).
+  auto bad = [&](const std::string& first, const char* second = "") {
+    std::string what = "connectivity: ";
+    what += first;
+    what += second;
+    return error(ErrorCode::kInvalidData, source, what, at_byte(at));
   };
   auto read = [&](uint64_t* value, const char* what) -> Status {
     at = in.offset();
-    if (!in.read_varint(value)) return bad(std::string("truncated ") + what);
+    if (!in.read_varint(value)) return bad("truncated ", what);
     return Status::ok_status();
   };
 
@@ -525,14 +532,14 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
   auto read_ids = [&](std::vector<uint32_t>* ids, const char* what) -> Status {
     uint64_t n = 0;
     OSTEON_RETURN_IF_ERROR(read(&n, what));
-    if (n > vertex_ids || !in.fits(n, 1)) return bad(std::string("too many ") + what);
+    if (n > vertex_ids || !in.fits(n, 1)) return bad("too many ", what);
     ids->resize(n);
     uint64_t last = 0;
     for (uint64_t i = 0; i < n; ++i) {
       uint64_t delta = 0;
       OSTEON_RETURN_IF_ERROR(read(&delta, what));
       const uint64_t id = i == 0 ? delta : last + 1 + delta;
-      if (delta >= vertex_ids || id >= vertex_ids) return bad(std::string(what) + " out of range");
+      if (delta >= vertex_ids || id >= vertex_ids) return bad(what, " out of range");
       (*ids)[i] = static_cast<uint32_t>(id);
       last = id;
     }
@@ -568,7 +575,7 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
              static_cast<uint32_t>(vertex_ids), std::move(events));
   uint32_t failed_at = 0;
   if (!decode_symbols(core, decoder, context, static_cast<uint32_t>(symbols), &failed_at)) {
-    return bad(core.what() + message(" at symbol %", {failed_at}));
+    return bad(core.what(), message(" at symbol %", {failed_at}).c_str());
   }
   OSTEON_RETURN_IF_ERROR(decoder.finish(source, "connectivity"));
   if (!core.close_components()) return bad(core.what());

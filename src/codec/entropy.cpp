@@ -573,7 +573,10 @@ struct SectionErrors {
   const std::string& source;
   const std::string& what;
   Status operator()(size_t offset, const std::string& message) const {
-    return error(ErrorCode::kInvalidData, source, what + ": " + message, at_byte(offset));
+    std::string text = what;  // appends, not operator+ (fewer functions in the WebAssembly decoder)
+    text += ": ";
+    text += message;
+    return error(ErrorCode::kInvalidData, source, text, at_byte(offset));
   }
 };
 

@@ -9,6 +9,7 @@
 #include <memory>
 #include <vector>
 
+#include "codec/codec_internal.hpp"
 #include "codec/connectivity.hpp"
 #include "codec/entropy.hpp"
 #include "codec/geometry.hpp"
@@ -42,11 +43,13 @@
 // is then predicted on the plane through the prediction with that normal, from the other two
 // axes' residuals (on_tangent_plane), and its residual codes in contexts of its own.
 //
-// The apex weight (stream version 4): each parallelogram may be blended, in eighths, with the
-// apex of the equilateral triangle on its edge (n, p), in the plane of (n, p, o), away from o
-// (blend_apex). A parallelogram copies the shape of o's triangle; where triangles scatter around
-// equilateral (smoothed isosurfaces, raw marching cubes), the apex misses by less. The encoder
-// chooses the weight per mesh (choose_apex).
+// The triangle shape (stream version 5; version 4's apex weight is a special case): each
+// parallelogram's offset from its edge's midpoint may be scaled, and blended with the apex of the
+// equilateral triangle on the edge (n, p), in the plane of (n, p, o), away from o
+// (shaped_parallelogram). A parallelogram copies the shape of o's triangle: on irregular
+// triangles (decimated meshes) a shrunken offset misses by less, and where triangles scatter
+// around equilateral (smoothed isosurfaces, raw marching cubes) the apex does.
+// The encoder chooses the shape per mesh (choose_shape).
 //
 // Speed: every triangle has exactly one newest vertex, so grouping each triangle (n, p, o) under
 // its newest vertex (NewestTriangles, which the connectivity decoder builds as it writes the
@@ -137,6 +140,11 @@ struct Prediction {
   PredictionKind kind;
   uint32_t local[3];  // per axis: the residual magnitude around the vertex, for the context
   int64_t xyz[3];
+  // For version 5's contexts: per axis, the bit length of the spread (largest less smallest) of
+  // the parallelograms' values (0 with fewer than two); the bit length of the largest coordinate
+  // difference along the edges (n, p) of v's triangles (0 without any).
+  uint32_t spread_bits[3];
+  uint32_t reach_bits;
 };
 
 /// Per axis, the rounded mean of the symbols of the 2 * entries neighbours of v's entries
@@ -163,6 +171,12 @@ inline uint64_t magnitude(uint64_t x) {
   return x >> 63 ? 0 - x : x;
 }
 
+/// floor(a / b) for b >= 1.
+inline int64_t floor_div(int64_t a, int64_t b) {
+  const int64_t d = a / b;
+  return d - ((a % b != 0) & (a < 0));
+}
+
 /// floor(sqrt(x)) for 0 <= x < 2^62, exactly: the floating-point root is within one of it (x
 /// rounds to 53 bits, the root to 52), and one step each way corrects it, so the result is the
 /// same wherever the root rounds differently. Signed conversions: WebAssembly's unsigned ones
@@ -174,26 +188,43 @@ inline int64_t isqrt(int64_t x) {
   return r;
 }
 
-/// The apex prediction's weight is in eighths (stream version 4): kApexWeights values, 0 to 8,
-/// in the geometry mode byte's bits from kApexShift up (below them, the prediction mode).
+/// Stream version 4's apex weight A, 0 to 8 eighths, sits in the geometry mode byte's bits from
+/// kApexShift up (below them, the prediction mode); it is the triangle shape {16 - 2A, 2A} below.
+/// From version 5 on, bit kShapeFlag says that the shape's two weights follow.
 constexpr uint32_t kApexWeights = 9;
 constexpr int kApexShift = 2;
+constexpr uint8_t kShapeFlag = 1u << 2;
 /// floor(sqrt(3) 2^45), the apex's height over its edge in fixed point.
 constexpr int64_t kRootThree = 60941120090265;
 
-/// One parallelogram's prediction for stream version 4, with the apex weight a (1 to 8, in
-/// eighths): (8 - a) eighths of the parallelogram n + p - o, and a eighths of the apex of the
-/// equilateral triangle on the edge (n, p), in the plane of (n, p, o) on the side away from o.
-/// Regular meshes (smoothed isosurfaces) have near-equilateral triangles, where the apex misses
-/// less than copying o's triangle. In integers, so that every platform predicts the same:
+/// How a parallelogram's vertex is placed from the triangle (n, p, o) across its edge, in
+/// sixteenths (stream version 5; version 4's apex weight is a special case): from the edge's
+/// midpoint m = (n + p) / 2, the parallelogram moves by t / 2, t = n + p - 2o. A shape moves by
+/// `scale` sixteenths of that, plus `apex` sixteenths of the offset of the equilateral triangle's
+/// apex (sqrt(3) / 2 |p - n| across the edge, in the plane of (n, p, o), away from o). {16, 0} is
+/// the parallelogram. Irregular triangles (decimated meshes) copy o's shape badly: a shrunken
+/// offset misses by less; triangles that scatter around equilateral (smoothed isosurfaces, raw
+/// marching cubes) miss the apex by less.
+struct TriangleShape {
+  int32_t scale = 16;
+  int32_t apex = 0;
+  bool parallelogram() const { return scale == 16 && apex == 0; }
+};
+/// Each weight of a stream's shape is at most this many sixteenths.
+constexpr int32_t kMaxShapeWeight = 32;
+inline TriangleShape apex_shape(uint32_t apex) {
+  const int32_t a = static_cast<int32_t>(apex);
+  return {16 - 2 * a, 2 * a};
+}
+
+/// Twice the apex's offset from the edge's midpoint (shaped_parallelogram's 2d). In integers, so
+/// that every platform predicts the same:
 ///   e = p - n, t = n + p - 2o, both shifted right by s until every component fits 15 bits;
 ///   c = t x e, the triangle's normal, scaled so that its largest component has 30 bits;
-///   2d = floor(((e x c) floor(kRootThree / isqrt(c.c)) + 2^44) / 2^45) 2^s: twice the apex's
-///   offset from the edge's midpoint, sqrt(3) |e| across the edge, in the triangle's plane;
-///   value = floor(((8 - a) 2 (n + p - o) + a (n + p + 2d) + 8) / 16), clamped to +-(2^33 - 1).
-/// Without a triangle (c zero: o on the line through n and p) the apex is the edge's midpoint.
-inline void blend_apex(const int32_t* n, const int32_t* p, const int32_t* o, uint32_t apex,
-                       int64_t value[3]) {
+///   2d = floor(((e x c) floor(kRootThree / isqrt(c.c)) + 2^44) / 2^45) 2^s: sqrt(3) |e| across
+///   the edge, in the triangle's plane; zero without a triangle (c zero: o on the line through n
+///   and p).
+inline void apex_offset(const int32_t* n, const int32_t* p, const int32_t* o, int64_t apex[3]) {
   int64_t e[3], t[3];
   uint64_t big = 0;
   for (int k = 0; k < 3; ++k) {
@@ -214,23 +245,39 @@ inline void blend_apex(const int32_t* n, const int32_t* p, const int32_t* o, uin
       kRootThree / std::max<int64_t>(isqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), 1);
   const int64_t across[3] = {e[1] * c[2] - e[2] * c[1], e[2] * c[0] - e[0] * c[2],
                              e[0] * c[1] - e[1] * c[0]};
+  for (int k = 0; k < 3; ++k) {
+    apex[k] = ((across[k] * ratio + (int64_t{1} << 44)) >> 45) * (int64_t{1} << s);
+  }
+}
+
+/// One parallelogram's prediction under `shape` (not the parallelogram itself):
+///   value = floor((16 (n + p) + scale t + apex 2d + 16) / 32), clamped to +-(2^33 - 1),
+/// 2d computed only where apex != 0. Version 4's apex weight A gives exactly version 4's blend
+/// floor(((8 - A) 2 (n + p - o) + A (n + p + 2d) + 8) / 16).
+inline void shaped_parallelogram(const int32_t* n, const int32_t* p, const int32_t* o,
+                                 const TriangleShape& shape, int64_t value[3]) {
+  int64_t apex[3] = {0, 0, 0};
+  if (shape.apex != 0) apex_offset(n, p, o, apex);
   constexpr int64_t kLimit = (int64_t{1} << 33) - 1;
   for (int k = 0; k < 3; ++k) {
     const int64_t np = int64_t{n[k]} + p[k];
-    const int64_t apex2 = np + ((across[k] * ratio + (int64_t{1} << 44)) >> 45) * (int64_t{1} << s);
-    const int64_t blended = ((8 - int64_t{apex}) * 2 * (np - o[k]) + apex * apex2 + 8) >> 4;
-    value[k] = std::clamp(blended, -kLimit, kLimit);
+    const int64_t t = np - 2 * int64_t{o[k]};
+    value[k] = std::clamp((16 * np + shape.scale * t + shape.apex * apex[k] + 16) >> 5, -kLimit,
+                          kLimit);
   }
 }
 
 // The prediction of vertex v from the vertices before it; the encoder and the decoder call this
 // with the same records for vertices < v, so they agree bit for bit. kTwoCodings (the encoder
 // measuring two codings of the same prediction at once): also the local activity of a second
-// coding's symbols, into other_local. apex: the apex prediction's weight in eighths (0: the
-// parallelogram alone).
+// coding's symbols, into other_local. shape: how each parallelogram places the vertex
+// (TriangleShape). placed: the encoder's shaped_parallelogram() of every entry with an o, computed
+// once for the several codings it measures (nullptr: computed here).
+using Placed = std::array<int64_t, 3>;
 template <bool kTwoCodings = false>
 inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
-                          const uint32_t* symbols, PredictionMode mode, uint32_t apex,
+                          const uint32_t* symbols, PredictionMode mode,
+                          const TriangleShape& shape, const Placed* placed_entries = nullptr,
                           const uint32_t* other_symbols = nullptr,
                           uint32_t* other_local = nullptr) {
   Prediction out;
@@ -241,8 +288,10 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     // vertex (often a neighbour too: vertices are numbered along the decoded faces).
     const uint32_t u = nt.neighbour[v];
     out.kind = u != kNoVertexId ? kNeighbour : kNone;
+    out.reach_bits = 0;
     const uint32_t w = u != kNoVertexId ? u : v - 1;
     for (int k = 0; k < 3; ++k) {
+      out.spread_bits[k] = 0;
       out.local[k] = u != kNoVertexId ? lane(symbols[u], k) : 0;
       if constexpr (kTwoCodings) other_local[k] = u != kNoVertexId ? lane(other_symbols[u], k) : 0;
       out.xyz[k] = v > 0 ? xyz[3 * size_t{w} + k] : 0;
@@ -255,6 +304,9 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
   uint64_t lanes = 0;          // the neighbours' symbols, per axis
   uint64_t other_lanes = 0;
   int64_t count = 0;
+  int64_t low[3] = {INT64_MAX, INT64_MAX, INT64_MAX};  // the parallelograms' values' range
+  int64_t high[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
+  uint64_t reach = 0;
   const uint32_t entries = static_cast<uint32_t>(end - e);
   for (; e != end; ++e) {
     const int32_t* n = xyz + 3 * size_t{e->n};
@@ -265,17 +317,30 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     const bool use = e->o != kNoVertexId && (mode == kAverageAll || count == 0);
     const int32_t* o = xyz + 3 * size_t{use ? e->o : e->n};
     const int64_t w = use ? 1 : 0;
-    const bool blend = apex != 0 && use;
-    int64_t blended[3];
-    if (blend) blend_apex(n, p, o, apex, blended);
+    const bool shaped = use && !shape.parallelogram();
+    int64_t placed[3];
+    if (shaped && placed_entries != nullptr) {
+      std::copy_n(placed_entries[e - nt.entries.data()].data(), 3, placed);
+    } else if (shaped) {
+      shaped_parallelogram(n, p, o, shape, placed);
+    }
     for (int k = 0; k < 3; ++k) {
       const int64_t np = int64_t{n[k]} + p[k];
+      const int64_t value = shaped ? placed[k] : np - o[k];
       mid[k] += np;
-      sum[k] += blend ? blended[k] : w * (np - o[k]);
+      sum[k] += w * value;
+      low[k] = use ? std::min(low[k], value) : low[k];
+      high[k] = use ? std::max(high[k], value) : high[k];
+      reach |= magnitude(uint64_t(int64_t{p[k]} - n[k]));
     }
     count += w;
   }
   mean_symbols(begin, end, lanes, symbols, out.local);
+  out.reach_bits = static_cast<uint32_t>(std::bit_width(reach));
+  for (int k = 0; k < 3; ++k) {
+    out.spread_bits[k] =
+        count > 1 ? static_cast<uint32_t>(std::bit_width(uint64_t(high[k] - low[k]))) : 0;
+  }
   if constexpr (kTwoCodings) mean_symbols(begin, end, other_lanes, other_symbols, other_local);
   if (count > 0) {
     out.kind = count > 1 ? kMultiParallelogram : kParallelogram;
@@ -292,40 +357,68 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
 // rough); and the previous vertex's symbol on that axis (marching-cubes surfaces are rough along
 // some axes and not others, and neighbouring ids are close on the surface). Nothing in a
 // vertex's contexts depends on its own symbols, so its three symbols decode side by side.
+//
+// Version 5 (scaled contexts): the residual's expected size, one number from a linear model of
+// what predicts it, in sixteenths of a symbol: the neighbours' activity, the previous symbol, the
+// spread of the vertex's parallelograms on that axis (where they disagree, each misses by about
+// as much) and the length of its triangles' edges (residuals grow with the triangles). Its whole
+// symbols, from 0 to bins - 1, are the classes of each kind. One model, one class per context, so
+// small meshes pay for few tables. Its weights were fitted (least squares on the symbols) over
+// the codec bench's meshes; the kind's bias puts each kind's classes where its residuals lie.
+constexpr int32_t kScaledLocal = 7, kScaledPrevious = 1, kScaledSpread = 8, kScaledReach = 4;
+constexpr int32_t kScaledBias[2 * kKinds] = {-22, 35, 115, 247, -25, 9, 0, 0};
 struct ContextModel {
-  uint32_t activity_classes;
-  uint32_t previous_classes;
-  // The context's three terms, looked up: kind, local (< 128) and previous symbol (< 128).
+  uint32_t classes;  // per kind
+  // The terms of a context, in sixteenths of a class: kind (< 2 * kKinds), local activity and
+  // previous symbol (each < 128), looked up; the spread's and the reach's weights.
   std::array<uint16_t, 2 * kKinds> kind_term;  // kind + kKinds: the tangent plane's normal axis
-  std::array<uint16_t, 128> local_term;
-  std::array<uint16_t, 128> previous_term;
+  std::array<int32_t, 2 * kKinds> bias;
+  std::array<int32_t, 128> local_term;
+  std::array<int32_t, 128> previous_term;
+  int32_t spread_weight, reach_weight;
 
-  explicit ContextModel(uint32_t vertex_count)
-      : activity_classes(vertex_count < 2000 ? 2 : (vertex_count < 50000 ? 6 : 10)),
-        previous_classes(vertex_count < 2000 ? 1 : 6) {
+  ContextModel(uint32_t vertex_count, uint8_t version) {
+    const bool scaled = version >= 5;
+    const int32_t activity = vertex_count < 2000 ? 2 : (vertex_count < 50000 ? 6 : 10);
+    const int32_t previous = vertex_count < 2000 ? 1 : 6;
+    classes = scaled ? (vertex_count < 2000 ? 6 : (vertex_count < 50000 ? 14 : 20))
+                     : uint32_t(activity * previous);
     for (uint32_t k = 0; k < 2 * kKinds; ++k) {
-      kind_term[k] = static_cast<uint16_t>(k * activity_classes * previous_classes);
+      kind_term[k] = static_cast<uint16_t>(k * classes);
+      bias[k] = scaled ? kScaledBias[k] : 0;
     }
-    for (uint32_t i = 0; i < 128; ++i) {
-      local_term[i] = static_cast<uint16_t>(std::min(i, activity_classes - 1) * previous_classes);
-      previous_term[i] = static_cast<uint16_t>(std::min(i >> 1, previous_classes - 1));
+    // Up to version 4, the classes are activity x previous, in whole classes (16 sixteenths).
+    for (int32_t i = 0; i < 128; ++i) {
+      local_term[i] = scaled ? kScaledLocal * i : 16 * std::min(i, activity - 1) * previous;
+      previous_term[i] = scaled ? kScaledPrevious * i : 16 * std::min(i >> 1, previous - 1);
     }
+    spread_weight = scaled ? kScaledSpread : 0;
+    reach_weight = scaled ? kScaledReach : 0;
   }
 
   /// Plain coding's; tangent-plane coding has twice as many, its normal axis apart.
   uint32_t contexts(bool tangent_plane) const {
-    return (tangent_plane ? 2 : 1) * kKinds * activity_classes * previous_classes;
+    return (tangent_plane ? 2 : 1) * kKinds * classes;
   }
   /// The kind term of axis k's context: the prediction's kind, plus kKinds on the tangent plane's
   /// normal axis (kNoAxis for none), whose residual codes in contexts of its own.
   static uint32_t axis_kind(PredictionKind kind, int k, uint32_t normal_axis) {
     return kind + (uint32_t(k) == normal_axis ? uint32_t{kKinds} : 0u);
   }
-  /// (kind * activity_classes + min(local, activity_classes - 1)) * previous_classes
-  ///   + min(previous_symbol >> 1, previous_classes - 1); local, previous_symbol < 128; kind is
-  ///   a PredictionKind, plus kKinds for the tangent plane's normal axis.
-  uint32_t context(uint32_t kind, uint32_t local, uint32_t previous_symbol) const {
-    return kind_term[kind] + local_term[local & 127] + previous_term[previous_symbol & 127];
+  /// Axis k's context, kind being a PredictionKind, plus kKinds for the tangent plane's normal
+  /// axis; local, previous_symbol < 128. Up to version 4:
+  ///   (kind * activity_classes + min(local, activity_classes - 1)) * previous_classes
+  ///   + min(previous_symbol >> 1, previous_classes - 1);
+  /// from version 5: kind * classes + min(max(floor(theta / 16), 0), classes - 1), with
+  ///   theta = 7 local + previous_symbol + 8 spread_bits[k] + 4 reach_bits + kScaledBias[kind].
+  /// One formula computes both (the old terms in sixteenths of a class, never clamped), so that
+  /// the decoding loop has no branch on the version.
+  uint32_t context(uint32_t kind, uint32_t local, uint32_t previous_symbol, const Prediction& pred,
+                   int k) const {
+    const int32_t theta = local_term[local & 127] + previous_term[previous_symbol & 127] +
+                          spread_weight * int32_t(pred.spread_bits[k]) +
+                          reach_weight * int32_t(pred.reach_bits) + bias[kind];
+    return kind_term[kind] + uint32_t(std::clamp(theta >> 4, 0, int32_t(classes) - 1));
   }
 };
 
@@ -399,11 +492,6 @@ inline Normal parallelogram_normal(uint32_t v, const NewestTriangles& nt, const 
   return normal;
 }
 
-/// floor(a / b) for b >= 1.
-inline int64_t floor_div(int64_t a, int64_t b) {
-  const int64_t d = a / b;
-  return d - ((a % b != 0) & (a < 0));
-}
 
 /// Tangent-plane prediction (stream version 3): the prediction `pred` of the normal's largest
 /// axis d moved onto the plane through the prediction with that normal, given the residuals r
@@ -446,7 +534,8 @@ inline uint32_t free_context(PredictionKind kind, uint32_t local) {
 // WebAssembly decoder holds one copy of the prediction and the symbol reads: the lattice branches
 // go the same way for every vertex of a stream.
 OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
-                                   PredictionMode mode, uint32_t apex, bool tangent_plane,
+                                   PredictionMode mode, const TriangleShape& shape,
+                                   bool tangent_plane,
                                    int64_t lattice, SymbolDecoder& dec, ByteReader& in,
                                    const std::string& source, QuantizedPositions* q) {
   const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
@@ -457,7 +546,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   uint32_t previous[3] = {0, 0, 0};
   uint32_t mask = 0;  // lattice coding: the axes on lattice planes
   for (uint32_t v = 0; v < vertex_count; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode, apex);
+    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode, shape);
     // Lattice coding and the tangent plane read the normal; never both (decode_geometry checks).
     Normal normal;
     if (lattice != 0 || tangent_plane) normal = parallelogram_normal(v, nt, xyz);
@@ -466,7 +555,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
       // normal.axis is none without the tangent plane.
       for (int k = 0; k < 3; ++k) {
         const uint32_t kind = ContextModel::axis_kind(pred.kind, k, normal.axis);
-        context[k] = model.context(kind, pred.local[k], previous[k]);
+        context[k] = model.context(kind, pred.local[k], previous[k], pred, k);
       }
     } else {
       const uint32_t dominant = normal.axis;
@@ -540,14 +629,15 @@ inline uint32_t move_onto_tangent_plane(uint32_t v, const NewestTriangles& nt, c
 // symbol, z) to `sink`, updates `previous` and returns the packed symbols. normal_axis: the
 // tangent plane's, which codes in contexts of its own (kNoAxis for none).
 template <class Sink>
-inline uint32_t code_plain(const int32_t* at, const int64_t base[3], PredictionKind kind,
+inline uint32_t code_plain(const int32_t* at, const int64_t base[3], const Prediction& pred,
                            uint32_t normal_axis, const uint32_t local[3], const ContextModel& model,
                            uint32_t previous[3], Sink& sink) {
   uint32_t symbol[3];
   for (int k = 0; k < 3; ++k) {
     const uint64_t z = zigzag(int64_t{at[k]} - base[k]);
     symbol[k] = residual_symbol(z);
-    sink(model.context(ContextModel::axis_kind(kind, k, normal_axis), local[k], previous[k]),
+    sink(model.context(ContextModel::axis_kind(pred.kind, k, normal_axis), local[k], previous[k],
+                       pred, k),
          symbol[k], z, true);
     previous[k] = symbol[k];
   }
@@ -569,7 +659,8 @@ struct LoopState {
 // (the mask symbol has no raw bits).
 template <class Sink>
 void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, uint32_t apex, bool tangent_plane, int64_t lattice,
+                 PredictionMode mode, const TriangleShape& shape, const Placed* placed,
+                 bool tangent_plane, int64_t lattice,
                  uint32_t end, LoopState* state, Sink&& sink) {
   assert(state->next <= end && end <= q.xyz.size() / 3);
   state->symbols.resize(end);
@@ -578,12 +669,12 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
   uint32_t* const previous = state->previous;
   uint32_t previous_mask = state->previous_mask;
   for (uint32_t v = state->next; v < end; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols, mode, apex);
+    const Prediction pred = predict(v, nt, xyz, symbols, mode, shape, placed);
     if (lattice == 0) {
       int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
       const uint32_t axis = tangent_plane ? move_onto_tangent_plane(v, nt, xyz, base) : kNoAxis;
       symbols[v] =
-          code_plain(xyz + 3 * size_t{v}, base, pred.kind, axis, pred.local, model, previous, sink);
+          code_plain(xyz + 3 * size_t{v}, base, pred, axis, pred.local, model, previous, sink);
       continue;
     }
     uint32_t symbol[3];
@@ -618,7 +709,8 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
 // they stand, at the same vertex.
 template <class FlatSink, class PlaneSink>
 void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, uint32_t apex, uint32_t end, LoopState* flat,
+                 PredictionMode mode, const TriangleShape& shape, const Placed* placed,
+                 uint32_t end, LoopState* flat,
                  LoopState* plane, FlatSink&& flat_sink, PlaneSink&& plane_sink) {
   assert(flat->next == plane->next && flat->next <= end && end <= q.xyz.size() / 3);
   flat->symbols.resize(end);
@@ -626,54 +718,160 @@ void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const C
   const int32_t* xyz = q.xyz.data();
   for (uint32_t v = flat->next; v < end; ++v) {
     uint32_t plane_local[3];
-    const Prediction pred = predict<true>(v, nt, xyz, flat->symbols.data(), mode, apex,
+    const Prediction pred = predict<true>(v, nt, xyz, flat->symbols.data(), mode, shape, placed,
                                           plane->symbols.data(), plane_local);
     const int32_t* at = xyz + 3 * size_t{v};
     int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
     flat->symbols[v] =
-        code_plain(at, base, pred.kind, kNoAxis, pred.local, model, flat->previous, flat_sink);
+        code_plain(at, base, pred, kNoAxis, pred.local, model, flat->previous, flat_sink);
     const uint32_t axis = move_onto_tangent_plane(v, nt, xyz, base);
     plane->symbols[v] =
-        code_plain(at, base, pred.kind, axis, plane_local, model, plane->previous, plane_sink);
+        code_plain(at, base, pred, axis, plane_local, model, plane->previous, plane_sink);
   }
   flat->next = end;
   plane->next = end;
 }
 
-// The apex weight the encoder codes with (0: none). Each weight's residuals are estimated, by
-// their bit lengths, on up to kApexSamples vertices spread over the measured prefix; the weight
-// only blends two predictions, so the two ends (0 and 8 eighths) give every other by
-// interpolation. The apex is kept only where it is estimated to save at least kApexGain of
-// those bits: its prediction costs an integer square root and a division per parallelogram, in
-// the decoder too, and the estimate promises about twice what coding then saves (on the codec
-// bench's meshes, a 3% estimate saved 0.5 to 2%).
-constexpr uint32_t kApexSamples = 256;
-constexpr double kApexGain = 0.03;
-uint32_t choose_apex(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t end,
-                     int64_t lattice) {
-  std::vector<uint32_t> no_symbols(end, 0);  // the contexts' terms do not matter here
+// The triangle shape the encoder codes with. A shape's prediction is linear in its weights
+// (before rounding), so the midpoints, t and the apex offset of each sampled vertex give every
+// shape's: the residuals' bit lengths on kShapeSamples vertices spread over the measured prefix
+// (an eighth of it where that is more) estimate a shape's cost. The search starts from the
+// parallelogram, version 4's apex blends and the least-squares fit, then moves one weight at a
+// time, by 4, 2, then 1 sixteenth, while that lowers the estimate. The apex's share (an integer
+// square root and a division per parallelogram, in the decoder too, on the chain from one vertex
+// to the next) is kept only where it is estimated to save kApexGain over the best shape without
+// it, and a shape at all only where it is estimated to save kShapeGain over the parallelogram.
+constexpr uint32_t kShapeSamples = 512;
+constexpr double kShapeGain = 0.01;
+constexpr double kApexGain = 0.02;
+TriangleShape choose_shape(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t end,
+                           int64_t lattice) {
   const int32_t* xyz = q.xyz.data();
-  uint64_t cost[kApexWeights] = {};
-  const uint32_t stride = std::max(1u, end / kApexSamples);
+  // Per sampled vertex and axis: the coordinate, whether it is on a lattice plane, the midpoints'
+  // mean and the means of t and of 2d (the offsets at full weight, kMaxShapeWeight sixteenths);
+  // per vertex, its parallelograms' normal, for the tangent plane.
+  struct Sample {
+    int64_t at[3];
+    bool on_plane[3];
+    double mid[3], offset[2][3];
+    double normal[3];
+    uint32_t axis;
+  };
+  std::vector<Sample> samples;
+  const uint32_t stride = std::max(1u, end / std::max(kShapeSamples, end / 8));
   for (uint32_t v = 0; v < end; v += stride) {
-    const Prediction flat = predict(v, nt, xyz, no_symbols.data(), kAverageAll, 0);
-    if (flat.kind > kParallelogram) continue;
-    const Prediction apex = predict(v, nt, xyz, no_symbols.data(), kAverageAll, 8);
+    Sample x{};
+    int count = 0;
+    for (uint32_t i = nt.first[v]; i < nt.first[v + 1]; ++i) {
+      const NewestTriangle& t = nt.entries[i];
+      if (t.o == kNoVertexId) continue;
+      const int32_t* n = xyz + 3 * size_t{t.n};
+      const int32_t* p = xyz + 3 * size_t{t.p};
+      const int32_t* o = xyz + 3 * size_t{t.o};
+      int64_t apex[3];
+      apex_offset(n, p, o, apex);
+      for (int k = 0; k < 3; ++k) {
+        x.mid[k] += 0.5 * (double(n[k]) + p[k]);
+        x.offset[0][k] += double(n[k]) + p[k] - 2.0 * o[k];
+        x.offset[1][k] += double(apex[k]);
+      }
+      ++count;
+    }
+    if (count == 0) continue;
+    const Normal normal = parallelogram_normal(v, nt, xyz);
+    x.axis = normal.axis;
     for (int k = 0; k < 3; ++k) {
-      const int64_t c = xyz[3 * size_t{v} + k];
-      const bool on_plane = lattice != 0 && c % lattice == 0;
-      for (uint32_t a = 0; a < kApexWeights; ++a) {
-        const int64_t pred = flat.xyz[k] + floor_div((apex.xyz[k] - flat.xyz[k]) * a + 4, 8);
-        cost[a] +=
-            bit_length(zigzag(on_plane ? c / lattice - nearest_plane(pred, lattice) : c - pred));
+      x.at[k] = xyz[3 * size_t{v} + k];
+      x.on_plane[k] = lattice != 0 && x.at[k] % lattice == 0;
+      x.mid[k] /= count;
+      x.offset[0][k] /= count;
+      x.offset[1][k] /= count;
+      x.normal[k] = double(static_cast<int64_t>(normal.xyz[k]));
+    }
+    samples.push_back(x);
+  }
+  // The estimate: the residuals' bit lengths, the smaller of plain residuals and the tangent
+  // plane's (which predicts the normal's axis from the other two; not with lattice coding).
+  auto cost = [&](const TriangleShape& w) {
+    uint64_t flat = 0, plane = 0;
+    for (const Sample& x : samples) {
+      int64_t r[3];
+      uint64_t bits[3];
+      for (int k = 0; k < 3; ++k) {
+        const double offset = (w.scale * x.offset[0][k] + w.apex * x.offset[1][k]) / kMaxShapeWeight;
+        // floor(x + 0.5) by truncating a positive number: std::floor is a library call on
+        // x86-64 without SSE4.1. |x| < 2^34 here.
+        constexpr double kBias = 1099511627776.0;  // 2^40
+        const int64_t pred =
+            static_cast<int64_t>(x.mid[k] + offset + 0.5 + kBias) - (int64_t{1} << 40);
+        r[k] = x.at[k] - pred;
+        bits[k] = bit_length(zigzag(
+            x.on_plane[k] ? x.at[k] / lattice - nearest_plane(pred, lattice) : r[k]));
+      }
+      flat += bits[0] + bits[1] + bits[2];
+      if (x.axis == kNoAxis || lattice != 0) {
+        plane += bits[0] + bits[1] + bits[2];
+        continue;
+      }
+      const uint32_t d = x.axis, a = d == 0 ? 1 : 0, b = d == 2 ? 1 : 2;
+      const double across = r[d] + (x.normal[a] * r[a] + x.normal[b] * r[b]) / x.normal[d];
+      plane += bits[a] + bits[b] + bit_length(zigzag(std::llround(across)));
+    }
+    return std::min(flat, plane);
+  };
+  // Least squares: the weights w minimising sum (at - mid - offset . w / 32)^2.
+  double a[2][3] = {};
+  for (const Sample& x : samples) {
+    for (int k = 0; k < 3; ++k) {
+      for (int i = 0; i < 2; ++i) {
+        for (int j = 0; j < 2; ++j) a[i][j] += x.offset[i][k] * x.offset[j][k];
+        a[i][2] += x.offset[i][k] * (double(x.at[k]) - x.mid[k]);
       }
     }
   }
-  uint32_t best = 0;
-  for (uint32_t a = 1; a < kApexWeights; ++a) {
-    if (cost[a] < cost[best]) best = a;
+  auto weight = [](double x) {
+    return static_cast<int32_t>(std::clamp(std::lround(x), 0l, long{kMaxShapeWeight}));
+  };
+  std::vector<TriangleShape> starts;
+  for (const uint32_t apex : {2u, 4u, 8u}) starts.push_back(apex_shape(apex));  // version 4's
+  const double det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+  if (std::abs(det) > 1e-9 * std::max(1.0, a[0][0] * a[1][1])) {
+    starts.push_back({weight(kMaxShapeWeight * (a[0][2] * a[1][1] - a[0][1] * a[1][2]) / det),
+                      weight(kMaxShapeWeight * (a[0][0] * a[1][2] - a[1][0] * a[0][2]) / det)});
   }
-  return double(cost[best]) <= (1 - kApexGain) * double(cost[0]) ? best : 0;
+  if (a[0][0] > 0) starts.push_back({weight(kMaxShapeWeight * a[0][2] / a[0][0]), 0});
+  // From the best of `from`, one weight at a time while that lowers the estimate (the apex's
+  // weight only where `apex`).
+  auto search = [&](const std::vector<TriangleShape>& from, bool apex) {
+    std::pair<TriangleShape, uint64_t> best{TriangleShape(), cost(TriangleShape())};
+    for (const TriangleShape& w : from) {
+      const uint64_t c = cost(w);
+      if (c < best.second && (apex || w.apex == 0)) best = {w, c};
+    }
+    for (const int32_t size : {4, 2, 1}) {  // steps of 4, then 2, then 1 sixteenth
+      for (bool moved = true; moved;) {
+        moved = false;
+        for (int i = 0; i < (apex ? 2 : 1); ++i) {
+          for (const int32_t step : {-size, size}) {
+            TriangleShape w = best.first;
+            int32_t* field = i == 0 ? &w.scale : &w.apex;
+            *field += step;
+            if (*field < 0 || *field > kMaxShapeWeight) continue;
+            const uint64_t c = cost(w);
+            if (c < best.second) best = {w, c}, moved = true;
+          }
+        }
+      }
+    }
+    return best;
+  };
+  const uint64_t plain = cost(TriangleShape());
+  const auto [shape, shape_cost] = search(starts, true);
+  const auto [flat, flat_cost] = search(starts, false);
+  const bool apex = double(shape_cost) < (1 - kApexGain) * double(flat_cost);
+  const TriangleShape best = apex ? shape : flat;
+  const uint64_t best_cost = apex ? shape_cost : flat_cost;
+  return double(best_cost) <= (1 - kShapeGain) * double(plain) ? best : TriangleShape();
 }
 
 }  // namespace
@@ -682,7 +880,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
                      std::vector<uint8_t>* out) {
   const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
   assert(nt.first.size() == size_t{vertex_count} + 1 && nt.neighbour.size() == vertex_count);
-  const ContextModel model(vertex_count);
+  const ContextModel model(vertex_count, kStreamVersion);
   if (lattice < 2 || lattice > kMaxLattice) lattice = 0;
 
   // Choose the apex weight (choose_apex), then measure the codings (both parallelogram modes,
@@ -696,7 +894,19 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   // prefix instead of predicting it again.
   const uint32_t measured = std::min(
       {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
-  const uint32_t apex = choose_apex(nt, q, measured, lattice);
+  const TriangleShape shape = choose_shape(nt, q, measured, lattice);
+  // Each entry's shaped value, once for every coding measured and the one kept.
+  std::vector<Placed> placed;
+  if (!shape.parallelogram()) {
+    placed.resize(nt.entries.size());
+    for (size_t i = 0; i < nt.entries.size(); ++i) {
+      const NewestTriangle& t = nt.entries[i];
+      if (t.o == kNoVertexId) continue;
+      shaped_parallelogram(&q.xyz[3 * size_t{t.n}], &q.xyz[3 * size_t{t.p}],
+                           &q.xyz[3 * size_t{t.o}], shape, placed[i].data());
+    }
+  }
+  const Placed* const placed_entries = placed.empty() ? nullptr : placed.data();
   struct Coding {
     uint8_t mode;  // the mode byte's low bits: PredictionMode + kModes for the tangent plane
     uint32_t lattice;
@@ -711,7 +921,8 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
     };
   };
   auto run = [&](Coding& coding, uint32_t end, auto&& sink) {
-    encode_loop(nt, q, model, PredictionMode(coding.mode % kModes), apex, coding.mode >= kModes,
+    encode_loop(nt, q, model, PredictionMode(coding.mode % kModes), shape, placed_entries,
+                coding.mode >= kModes,
                 coding.lattice, end, &coding.state, sink);
   };
   // The candidates, in the order that breaks ties: plain residuals in modes 0 to 3 (the
@@ -743,34 +954,47 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   };
   // Two stages: the first kFirstStage vertices, where one coding usually leads every other by
   // more than kClearLead already; only a close call is measured on the whole prefix (and that
-  // chose as measuring it all did on the codec bench's 74 meshes).
+  // chose as measuring it all did on the codec bench's 74 meshes), and only among the codings
+  // within kBehind of the leader after the first stage.
   constexpr uint32_t kFirstStage = 1024;
   constexpr double kClearLead = 1.02;
+  constexpr double kBehind = 1.04;
+  std::vector<bool> out_of_it(codings.size(), false);
   size_t best = 0;
   for (const uint32_t end : {std::min(measured, kFirstStage), measured}) {
     for (uint32_t m = 0; m < kModes; ++m) {  // a parallelogram mode's two plain codings at once
       Coding& flat = codings[m];
       Coding& plane = codings[m + kModes];
-      encode_pair(nt, q, model, PredictionMode(m), apex, end, &flat.state, &plane.state,
-                  queue(flat.enc), queue(plane.enc));
+      if (out_of_it[m] && out_of_it[m + kModes]) continue;
+      encode_pair(nt, q, model, PredictionMode(m), shape, placed_entries, end, &flat.state,
+                  &plane.state, queue(flat.enc), queue(plane.enc));
     }
     for (size_t i = 2 * kModes; i < codings.size(); ++i) {
-      run(codings[i], end, queue(codings[i].enc));
+      if (!out_of_it[i]) run(codings[i], end, queue(codings[i].enc));
     }
     best = 0;
+    while (out_of_it[best]) ++best;
     for (size_t i = 0; i < codings.size(); ++i) {
+      if (out_of_it[i]) continue;
       codings[i].bits = estimate(codings[i]);
       if (codings[i].bits < codings[best].bits) best = i;  // of equals, the first
     }
     bool clear = true;
     for (size_t i = 0; i < codings.size(); ++i) {
-      if (i != best && codings[i].bits <= codings[best].bits * kClearLead) clear = false;
+      if (out_of_it[i] || i == best) continue;
+      if (codings[i].bits <= codings[best].bits * kClearLead) clear = false;
+      if (codings[i].bits > codings[best].bits * kBehind) out_of_it[i] = true;
     }
     if (clear) break;
   }
   Coding& kept = codings[best];
 
-  out->push_back(static_cast<uint8_t>(kept.mode | apex << kApexShift));
+  const bool shaped = !shape.parallelogram();
+  out->push_back(static_cast<uint8_t>(kept.mode | (shaped ? kShapeFlag : 0)));
+  if (shaped) {
+    out->push_back(static_cast<uint8_t>(shape.scale));
+    out->push_back(static_cast<uint8_t>(shape.apex));
+  }
   ByteWriter writer(out);
   writer.write_varint(kept.lattice);
   kept.enc.reserve(size_t{vertex_count - kept.state.next} * symbols_per_vertex(kept.lattice));
@@ -788,11 +1012,21 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
                  message("geometry: the connectivity does not have % vertices", {vertex_count}));
   }
   uint8_t mode = 0;
-  const bool read = in.read_le(&mode);
-  const uint32_t apex = mode >> kApexShift;
+  bool known = in.read_le(&mode);
+  const uint32_t high = mode >> kApexShift;
   mode &= (1u << kApexShift) - 1;
-  if (!read || mode >= (version >= 3 ? 2 * kModes : kModes) ||
-      apex >= (version >= 4 ? kApexWeights : 1)) {
+  TriangleShape shape;
+  if (version == 4) {
+    shape = apex_shape(high);
+    known = known && high < kApexWeights;
+  } else if (version >= 5 && high == 1) {
+    uint8_t w[2] = {0, 0};
+    for (uint8_t& x : w) known = known && in.read_le(&x) && x <= kMaxShapeWeight;
+    shape = {w[0], w[1]};
+  } else {
+    known = known && high == 0;
+  }
+  if (!known || mode >= (version >= 3 ? 2 * kModes : kModes)) {
     return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
                  at_byte(in.offset()));
   }
@@ -802,7 +1036,7 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
     return error(ErrorCode::kInvalidData, source, "geometry: bad lattice period",
                  at_byte(in.offset()));
   }
-  const ContextModel model(vertex_count);
+  const ContextModel model(vertex_count, version);
   SymbolDecoder dec;
   OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols,
                                   lattice != 0 ? kLatticeContexts : model.contexts(mode >= kModes),
@@ -815,7 +1049,7 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   }
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
-  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), apex, mode >= kModes,
+  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), shape, mode >= kModes,
                                      int64_t(lattice), dec, in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
   return q;

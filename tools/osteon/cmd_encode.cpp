@@ -70,6 +70,7 @@ int run_encode(const EncodeArgs& args) {
         {"max_error", report.max_error},
         {"grid_step", report.grid_step},
         {"prediction_mode", report.prediction_mode},  // docs/FORMAT.md, geometry section
+        {"triangle_shape", {report.shape_scale, report.shape_apex}},
         {"encode_ms", ms}};
     std::cout << j.dump(2) << "\n";
   } else {
