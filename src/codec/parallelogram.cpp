@@ -193,7 +193,7 @@ inline int64_t isqrt(int64_t x) {
 /// From version 5 on, bit kShapeFlag says that the shape's two weights follow.
 constexpr uint32_t kApexWeights = 9;
 constexpr int kApexShift = 2;
-constexpr uint8_t kShapeFlag = 1u << 2;
+constexpr uint8_t kShapeFlag = 1u << kApexShift;
 /// floor(sqrt(3) 2^45), the apex's height over its edge in fixed point.
 constexpr int64_t kRootThree = 60941120090265;
 
@@ -262,8 +262,8 @@ inline void shaped_parallelogram(const int32_t* n, const int32_t* p, const int32
   for (int k = 0; k < 3; ++k) {
     const int64_t np = int64_t{n[k]} + p[k];
     const int64_t t = np - 2 * int64_t{o[k]};
-    value[k] = std::clamp((16 * np + shape.scale * t + shape.apex * apex[k] + 16) >> 5, -kLimit,
-                          kLimit);
+    value[k] =
+        std::clamp((16 * np + shape.scale * t + shape.apex * apex[k] + 16) >> 5, -kLimit, kLimit);
   }
 }
 
@@ -276,8 +276,8 @@ inline void shaped_parallelogram(const int32_t* n, const int32_t* p, const int32
 using Placed = std::array<int64_t, 3>;
 template <bool kTwoCodings = false>
 inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
-                          const uint32_t* symbols, PredictionMode mode,
-                          const TriangleShape& shape, const Placed* placed_entries = nullptr,
+                          const uint32_t* symbols, PredictionMode mode, const TriangleShape& shape,
+                          const Placed* placed_entries = nullptr,
                           const uint32_t* other_symbols = nullptr,
                           uint32_t* other_local = nullptr) {
   Prediction out;
@@ -397,9 +397,7 @@ struct ContextModel {
   }
 
   /// Plain coding's; tangent-plane coding has twice as many, its normal axis apart.
-  uint32_t contexts(bool tangent_plane) const {
-    return (tangent_plane ? 2 : 1) * kKinds * classes;
-  }
+  uint32_t contexts(bool tangent_plane) const { return (tangent_plane ? 2 : 1) * kKinds * classes; }
   /// The kind term of axis k's context: the prediction's kind, plus kKinds on the tangent plane's
   /// normal axis (kNoAxis for none), whose residual codes in contexts of its own.
   static uint32_t axis_kind(PredictionKind kind, int k, uint32_t normal_axis) {
@@ -492,7 +490,6 @@ inline Normal parallelogram_normal(uint32_t v, const NewestTriangles& nt, const 
   return normal;
 }
 
-
 /// Tangent-plane prediction (stream version 3): the prediction `pred` of the normal's largest
 /// axis d moved onto the plane through the prediction with that normal, given the residuals r
 /// of the other two axes a and b (decoded first, or read beside it):
@@ -535,9 +532,9 @@ inline uint32_t free_context(PredictionKind kind, uint32_t local) {
 // go the same way for every vertex of a stream.
 OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
                                    PredictionMode mode, const TriangleShape& shape,
-                                   bool tangent_plane,
-                                   int64_t lattice, SymbolDecoder& dec, ByteReader& in,
-                                   const std::string& source, QuantizedPositions* q) {
+                                   bool tangent_plane, int64_t lattice, SymbolDecoder& dec,
+                                   ByteReader& in, const std::string& source,
+                                   QuantizedPositions* q) {
   const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
   // Written before being read, so not cleared.
   const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
@@ -660,8 +657,7 @@ struct LoopState {
 template <class Sink>
 void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
                  PredictionMode mode, const TriangleShape& shape, const Placed* placed,
-                 bool tangent_plane, int64_t lattice,
-                 uint32_t end, LoopState* state, Sink&& sink) {
+                 bool tangent_plane, int64_t lattice, uint32_t end, LoopState* state, Sink&& sink) {
   assert(state->next <= end && end <= q.xyz.size() / 3);
   state->symbols.resize(end);
   uint32_t* const symbols = state->symbols.data();
@@ -710,8 +706,8 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
 template <class FlatSink, class PlaneSink>
 void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
                  PredictionMode mode, const TriangleShape& shape, const Placed* placed,
-                 uint32_t end, LoopState* flat,
-                 LoopState* plane, FlatSink&& flat_sink, PlaneSink&& plane_sink) {
+                 uint32_t end, LoopState* flat, LoopState* plane, FlatSink&& flat_sink,
+                 PlaneSink&& plane_sink) {
   assert(flat->next == plane->next && flat->next <= end && end <= q.xyz.size() / 3);
   flat->symbols.resize(end);
   plane->symbols.resize(end);
@@ -798,15 +794,16 @@ TriangleShape choose_shape(const NewestTriangles& nt, const QuantizedPositions& 
       int64_t r[3];
       uint64_t bits[3];
       for (int k = 0; k < 3; ++k) {
-        const double offset = (w.scale * x.offset[0][k] + w.apex * x.offset[1][k]) / kMaxShapeWeight;
+        const double offset =
+            (w.scale * x.offset[0][k] + w.apex * x.offset[1][k]) / kMaxShapeWeight;
         // floor(x + 0.5) by truncating a positive number: std::floor is a library call on
         // x86-64 without SSE4.1. |x| < 2^34 here.
         constexpr double kBias = 1099511627776.0;  // 2^40
         const int64_t pred =
             static_cast<int64_t>(x.mid[k] + offset + 0.5 + kBias) - (int64_t{1} << 40);
         r[k] = x.at[k] - pred;
-        bits[k] = bit_length(zigzag(
-            x.on_plane[k] ? x.at[k] / lattice - nearest_plane(pred, lattice) : r[k]));
+        bits[k] = bit_length(
+            zigzag(x.on_plane[k] ? x.at[k] / lattice - nearest_plane(pred, lattice) : r[k]));
       }
       flat += bits[0] + bits[1] + bits[2];
       if (x.axis == kNoAxis || lattice != 0) {
@@ -883,9 +880,9 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   const ContextModel model(vertex_count, kStreamVersion);
   if (lattice < 2 || lattice > kMaxLattice) lattice = 0;
 
-  // Choose the apex weight (choose_apex), then measure the codings (both parallelogram modes,
-  // with and without the tangent plane, and on the lattice where there is one) with it, and code
-  // with the cheapest.
+  // Choose the triangle shape (choose_shape), then measure the codings (both parallelogram
+  // modes, with and without the tangent plane, and on the lattice where there is one) with it,
+  // and code with the cheapest.
   // They are measured on a prefix in decoding order, a connected patch coded as the whole mesh
   // codes it (its contexts come from vertices before): a quarter of the vertices, at least
   // kMeasuredVertices / 4 and at most kMeasuredVertices. Measuring every vertex took 2-4 passes
@@ -895,9 +892,11 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   const uint32_t measured = std::min(
       {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
   const TriangleShape shape = choose_shape(nt, q, measured, lattice);
-  // Each entry's shaped value, once for every coding measured and the one kept.
+  // Each entry's shaped value, once for every coding measured and the one kept, where the apex
+  // makes it costly (a square root and a division); without it, computing it again is cheaper
+  // than reading it back.
   std::vector<Placed> placed;
-  if (!shape.parallelogram()) {
+  if (shape.apex != 0) {
     placed.resize(nt.entries.size());
     for (size_t i = 0; i < nt.entries.size(); ++i) {
       const NewestTriangle& t = nt.entries[i];
@@ -922,8 +921,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   };
   auto run = [&](Coding& coding, uint32_t end, auto&& sink) {
     encode_loop(nt, q, model, PredictionMode(coding.mode % kModes), shape, placed_entries,
-                coding.mode >= kModes,
-                coding.lattice, end, &coding.state, sink);
+                coding.mode >= kModes, coding.lattice, end, &coding.state, sink);
   };
   // The candidates, in the order that breaks ties: plain residuals in modes 0 to 3 (the
   // parallelogram modes without, then with the tangent plane), then lattice coding's modes
@@ -1019,7 +1017,7 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   if (version == 4) {
     shape = apex_shape(high);
     known = known && high < kApexWeights;
-  } else if (version >= 5 && high == 1) {
+  } else if (version >= 5 && high == kShapeFlag >> kApexShift) {
     uint8_t w[2] = {0, 0};
     for (uint8_t& x : w) known = known && in.read_le(&x) && x <= kMaxShapeWeight;
     shape = {w[0], w[1]};
@@ -1049,8 +1047,8 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   }
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
-  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), shape, mode >= kModes,
-                                     int64_t(lattice), dec, in, source, &q));
+  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), shape,
+                                     mode >= kModes, int64_t(lattice), dec, in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
   return q;
 }
