@@ -35,7 +35,8 @@ TEST(Cli, EverySubcommandHasHelp) {
 }
 
 // The encode report names the geometry's prediction mode: a decimated BodyParts3D bone codes
-// with the tangent plane (mode bit 1).
+// with the tangent plane (mode bit 1), a triangle shape and the extrapolation; a Visible Human
+// bone with the curvature step.
 TEST(Cli, EncodeJsonReportsThePredictionMode) {
   OSTEON_REQUIRE_SHARED_DATA(data);
   const std::string out = test::scratch_dir() + "/cartilage.ostm";
@@ -53,6 +54,19 @@ TEST(Cli, EncodeJsonReportsThePredictionMode) {
   ASSERT_TRUE(j["triangle_shape"].is_array() && j["triangle_shape"].size() == 2) << run.out;
   EXPECT_EQ(j["prediction_mode"].get<int>() & 4, 4) << run.out;
   EXPECT_LT(j["triangle_shape"][0].get<int>(), 16) << run.out;
+  // Its vertices without parallelograms step out from their decoded neighbours (mode bit 3).
+  ASSERT_TRUE(j["refinements"].is_array() && j["refinements"].size() == 2) << run.out;
+  EXPECT_EQ(j["prediction_mode"].get<int>() & 8, 8) << run.out;
+  EXPECT_GT(j["refinements"][0].get<int>(), 0) << run.out;
+  // A smoothed isosurface of a curved bone: the prediction follows its neighbours' misses along
+  // the normal (the curvature step).
+  CliRun curved = run_cli("encode --json " + data +
+                          "/ingvilddevold__muscle-growth/data/VHF_surfaces/Left/"
+                          "VHF_Left_Bone_Talus_smooth.stl -o " + out);
+  ASSERT_EQ(curved.status, 0) << curved.err;
+  nlohmann::json k = nlohmann::json::parse(curved.out);
+  EXPECT_EQ(k["prediction_mode"].get<int>() & 8, 8) << curved.out;
+  EXPECT_GT(k["refinements"][1].get<int>(), 0) << curved.out;
 }
 
 TEST(Cli, InfoJsonHasTheDocumentedFields) {

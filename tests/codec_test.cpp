@@ -254,11 +254,11 @@ void set_crc(std::vector<uint8_t>& bytes) {
 }
 
 TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
-  // Plain, lattice, tangent-plane and apex-weighted geometry.
+  // Plain, lattice, tangent-plane and apex-weighted geometry (the last with both refinements).
   const std::string golden = std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/";
   const std::vector<uint8_t> streams[4] = {
-      small_stream(), small_lattice_stream(), test::read_bytes(golden + "pelvis_half_b14_v5.ostm"),
-      test::read_bytes(golden + "jittered_sphere_b14_v5.ostm")};
+      small_stream(), small_lattice_stream(), test::read_bytes(golden + "pelvis_half_b14_v6.ostm"),
+      test::read_bytes(golden + "jittered_sphere_b14_v6.ostm")};
   std::mt19937 rng(7);
   for (int trial = 0; trial < 8000; ++trial) {
     std::vector<uint8_t> copy = streams[trial % 4];
@@ -297,7 +297,9 @@ TEST(Codec, HeaderErrorsAreNamed) {
 // The geometry section's mode byte: tangent-plane prediction (bit 1) exists from version 3 on,
 // and only with plain residuals, not lattice coding; the apex weight (bits 2 to 5) in version 4,
 // up to 8 eighths; from version 5 on, bit 2 says that a triangle shape follows, each of its two
-// weights up to 32 sixteenths, and bits 3 to 7 are 0.
+// weights up to 32 sixteenths, and bits 3 to 7 are 0; from version 6 on, bit 3 says that the two
+// refinements' weights follow, each up to 32 sixteenths, the curvature's 0 with lattice coding,
+// and bits 4 to 7 are 0.
 TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   auto geometry_mode = [](std::vector<uint8_t>& bytes) -> uint8_t& {
     uint32_t connectivity = 0;
@@ -305,7 +307,7 @@ TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
     return bytes[60 + connectivity];
   };
   std::vector<uint8_t> plane = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
-                                                "/tests/data/golden/pelvis_half_b14_v5.ostm");
+                                                "/tests/data/golden/pelvis_half_b14_v6.ostm");
   ASSERT_GT(plane.size(), 64u);
   ASSERT_EQ(geometry_mode(plane), 2);
   ASSERT_TRUE(decode(plane.data(), plane.size()).ok());
@@ -340,14 +342,39 @@ TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   ASSERT_GT(shape.size(), 64u);
   ASSERT_EQ(geometry_mode(shape) & 4, 4);
   ASSERT_TRUE(decode(shape.data(), shape.size()).ok());
-  std::vector<uint8_t> unknown_bit = shape;
-  geometry_mode(unknown_bit) |= 8;
-  EXPECT_TRUE(rejected(unknown_bit));
-  for (int weight = 0; weight < 2; ++weight) {
-    std::vector<uint8_t> too_heavy = shape;
-    (&geometry_mode(too_heavy))[1 + weight] = 33;  // 33 sixteenths
-    EXPECT_TRUE(rejected(too_heavy)) << weight;
-  }
+  // The mode bit after the version's last, and each of two weights (from byte `first` after the
+  // mode byte) at 33 sixteenths, are rejected.
+  auto checks_weights = [&](const std::vector<uint8_t>& stream, uint8_t next_bit, int first) {
+    std::vector<uint8_t> unknown_bit = stream;
+    geometry_mode(unknown_bit) |= next_bit;
+    EXPECT_TRUE(rejected(unknown_bit));
+    for (int weight = 0; weight < 2; ++weight) {
+      std::vector<uint8_t> too_heavy = stream;
+      (&geometry_mode(too_heavy))[first + weight] = 33;
+      EXPECT_TRUE(rejected(too_heavy)) << weight;
+    }
+  };
+  checks_weights(shape, 8, 1);
+  // Version 6: the jittered sphere has the shape (bytes 1 and 2 after the mode byte) and both
+  // refinements (bytes 3 and 4).
+  std::vector<uint8_t> refined = test::read_bytes(golden + "jittered_sphere_b14_v6.ostm");
+  ASSERT_GT(refined.size(), 64u);
+  ASSERT_EQ(geometry_mode(refined) & 12, 12);
+  ASSERT_TRUE(decode(refined.data(), refined.size()).ok());
+  checks_weights(refined, 16, 3);
+  std::vector<uint8_t> refined_v5 = refined;
+  refined_v5[4] = 5;  // version 5 has no refinements
+  EXPECT_TRUE(rejected(refined_v5));
+  std::vector<uint8_t> lattice_refined = test::read_bytes(golden + "lattice_sphere_b14_v6.ostm");
+  ASSERT_GT(lattice_refined.size(), 64u);
+  ASSERT_EQ(geometry_mode(lattice_refined) & 12, 12);
+  (&geometry_mode(lattice_refined))[4] = 4;  // a curvature step with lattice coding
+  set_crc(lattice_refined);
+  EXPECT_NE(decode(lattice_refined.data(), lattice_refined.size())
+                .status()
+                .message()
+                .find("bad lattice period"),
+            std::string::npos);
   std::vector<uint8_t> lattice = small_lattice_stream();
   ASSERT_EQ(geometry_mode(lattice) & 3, 0);
   geometry_mode(lattice) |= 2;  // the tangent plane with lattice coding
@@ -468,17 +495,17 @@ struct Golden {
   int detail = 1;  // the phantom's
 };
 constexpr Golden kGoldens[] = {
-    {"vertebra_l1_b12_v5.ostm", "vertebra_l1", 12, false},      // genus 1
-    {"pelvis_b14_v5.ostm", "pelvis", 14, false},                // 4 holes
-    {"scapula_l_b10_v5.ostm", "scapula_l", 10, false},          // non-manifold edges
-    {"femur_r_b16_normals_v5.ostm", "femur_r", 16, true},       // mirrored copy, normals sent
-    {"lattice_sphere_b14_v5.ostm", nullptr, 14, false},         // voxel lattice, the apex
-    {"rib_l1_half_b14_v5.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
-    {"pelvis_half_b14_v5.ostm", "pelvis", 14, false, 0.5f},     // tangent plane, mean
-    {"jittered_sphere_b14_v5.ostm", "jittered", 14, false},     // the apex
+    {"vertebra_l1_b12_v6.ostm", "vertebra_l1", 12, false},      // genus 1
+    {"pelvis_b14_v6.ostm", "pelvis", 14, false},                // 4 holes
+    {"scapula_l_b10_v6.ostm", "scapula_l", 10, false},          // non-manifold edges
+    {"femur_r_b16_normals_v6.ostm", "femur_r", 16, true},       // mirrored copy, normals sent
+    {"lattice_sphere_b14_v6.ostm", nullptr, 14, false},         // voxel lattice, the apex
+    {"rib_l1_half_b14_v6.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
+    {"pelvis_half_b14_v6.ostm", "pelvis", 14, false, 0.5f},     // tangent plane, mean
+    {"jittered_sphere_b14_v6.ostm", "jittered", 14, false},     // the apex
 };
 // Streams of earlier versions, frozen before the next: version 1 of the first four, version 2
-// of the first five, version 3 of the first seven, version 4 of all eight.
+// of the first five, version 3 of the first seven, versions 4 and 5 of all eight.
 struct OlderGolden {
   Golden golden;
   uint8_t version;
@@ -508,6 +535,14 @@ constexpr OlderGolden kOlderGoldens[] = {
     {{"rib_l1_half_b14_v4.ostm", "rib_l1", 14, false, 0.5f, 2}, 4},
     {{"pelvis_half_b14_v4.ostm", "pelvis", 14, false, 0.5f}, 4},
     {{"jittered_sphere_b14_v4.ostm", "jittered", 14, false}, 4},
+    {{"vertebra_l1_b12_v5.ostm", "vertebra_l1", 12, false}, 5},
+    {{"pelvis_b14_v5.ostm", "pelvis", 14, false}, 5},
+    {{"scapula_l_b10_v5.ostm", "scapula_l", 10, false}, 5},
+    {{"femur_r_b16_normals_v5.ostm", "femur_r", 16, true}, 5},
+    {{"lattice_sphere_b14_v5.ostm", nullptr, 14, false}, 5},
+    {{"rib_l1_half_b14_v5.ostm", "rib_l1", 14, false, 0.5f, 2}, 5},
+    {{"pelvis_half_b14_v5.ostm", "pelvis", 14, false, 0.5f}, 5},
+    {{"jittered_sphere_b14_v5.ostm", "jittered", 14, false}, 5},
 };
 
 std::string golden_dir() {
@@ -539,6 +574,7 @@ const Mesh* golden_mesh(const Phantom& detail_1, const Golden& g) {
 TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});
   const bool write = std::getenv("OSTEON_WRITE_GOLDEN") != nullptr;
+  int extrapolated = 0, curved = 0;  // goldens with each refinement
   for (const Golden& g : kGoldens) {
     SCOPED_TRACE(g.file);
     const Mesh* part = golden_mesh(phantom, g);
@@ -563,13 +599,17 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
     EncodeReport report;
     ASSERT_TRUE(encode(*part, options, &report).ok());
     if (g.kept < 1) {
-      EXPECT_GE(report.prediction_mode, 2) << "tangent-plane prediction";
+      EXPECT_EQ(report.prediction_mode & 2, 2) << "tangent-plane prediction";
     }
     if (g.detail == 2) {
-      EXPECT_EQ(report.prediction_mode, 3) << "the first parallelogram only";
+      EXPECT_EQ(report.prediction_mode & 3, 3) << "the first parallelogram only";
     }
     const bool plain = report.shape_scale == 16 && report.shape_apex == 0;
     EXPECT_EQ((report.prediction_mode & 4) != 0, !plain) << "mode bit 2: a triangle shape";
+    const bool refined = report.extrapolation != 0 || report.curvature != 0;
+    EXPECT_EQ((report.prediction_mode & 8) != 0, refined) << "mode bit 3: the refinements";
+    extrapolated += report.extrapolation != 0 ? 1 : 0;
+    curved += report.curvature != 0 ? 1 : 0;
     // The spheres' triangles are near-equilateral: mostly the apex (the lattice sphere's with
     // lattice coding), little of the parallelogram's offsets.
     if (g.part == nullptr || std::string(g.part) == "jittered") {
@@ -577,9 +617,13 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
       EXPECT_LT(report.shape_scale, 8);
     }
   }
+  if (!write) {
+    EXPECT_GE(extrapolated, 1) << "a golden stream with the extrapolation";
+    EXPECT_GE(curved, 1) << "a golden stream with the curvature step";
+  }
 }
 
-// The decoder keeps reading versions 1 to 4, to the very mesh the current stream of the same
+// The decoder keeps reading versions 1 to 5, to the very mesh the current stream of the same
 // part decodes to (the versions share the grid; they differ in how they predict and code it).
 TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});

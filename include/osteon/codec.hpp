@@ -18,7 +18,7 @@ namespace osteon {
 /// The .ostm stream version encode() writes; decode() reads versions 1 to this one
 /// (docs/FORMAT.md). A package's manifest records it, so a reader can refuse newer streams up
 /// front.
-inline constexpr int kStreamVersion = 5;
+inline constexpr int kStreamVersion = 6;
 
 /// A quantization grid: position p is stored as round((p - origin) / step) per axis. Several
 /// parts encoded with the same grid meet without cracks where their vertices coincide.
@@ -64,13 +64,19 @@ struct EncodeReport {
   double max_error = 0;  ///< largest per-coordinate |decoded - input| over all vertices
   /// The geometry section's prediction mode (docs/FORMAT.md): bit 0 set for the first
   /// parallelogram only (else the mean of all), bit 1 for tangent-plane prediction, bit 2 when
-  /// the triangle shape below is not the plain parallelogram.
+  /// the triangle shape below is not the plain parallelogram, bit 3 when a refinement below is on.
   uint8_t prediction_mode = 0;
   /// The triangle shape each parallelogram places its vertex with, in sixteenths (docs/FORMAT.md,
   /// "value(n, p, o)"): the share of the parallelogram's offset from its edge's midpoint, and the
   /// equilateral apex's share. {16, 0} is the plain parallelogram.
   int shape_scale = 16;
   int shape_apex = 0;
+  /// The prediction's refinements, in sixteenths (docs/FORMAT.md, "step_out" and
+  /// "curvature_step"; 0 when off): how far a vertex without parallelograms steps out from its
+  /// decoded neighbour, and the share of the neighbours' residuals along the normal that a
+  /// parallelogram's prediction adds.
+  int extrapolation = 0;
+  int curvature = 0;
   double grid_step = 0;
   QuantizationGrid grid;
 };

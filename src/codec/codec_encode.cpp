@@ -132,9 +132,14 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     r.connectivity_bytes = connectivity.bytes.size();
     r.geometry_bytes = geometry.size();
     r.prediction_mode = geometry.empty() ? 0 : geometry[0];
-    if ((r.prediction_mode & 4) != 0) {  // the shape's two weights follow the mode byte
-      r.shape_scale = geometry[1];
-      r.shape_apex = geometry[2];
+    size_t at = 1;                       // the weights follow the mode byte
+    if ((r.prediction_mode & 4) != 0) {  // the shape's two
+      r.shape_scale = geometry[at++];
+      r.shape_apex = geometry[at++];
+    }
+    if ((r.prediction_mode & 8) != 0) {  // the refinements' two
+      r.extrapolation = geometry[at++];
+      r.curvature = geometry[at];
     }
     r.normal_bytes = normals.size();
     r.vertices = vertex_count;

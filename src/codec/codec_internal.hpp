@@ -16,7 +16,7 @@ namespace osteon::detail {
 constexpr uint8_t kStreamMagic[4] = {'O', 'S', 'T', 'M'};
 /// The version the encoder writes; the decoder reads kOldestStreamVersion..kStreamVersion
 /// (version 2 added lattice coding to the geometry section, version 3 tangent-plane prediction).
-constexpr uint8_t kStreamVersion = 5;  // osteon::kStreamVersion (codec_encode.cpp checks)
+constexpr uint8_t kStreamVersion = 6;  // osteon::kStreamVersion (codec_encode.cpp checks)
 constexpr uint8_t kOldestStreamVersion = 1;
 constexpr size_t kStreamHeaderBytes = 4 + 1 + 1 + 2 + 4 + 4 + 4 * 8 + 3 * 4;  // 60
 constexpr size_t kStreamChecksumBytes = 4;

@@ -682,12 +682,14 @@ OSTEON_COLD_FUNCTION std::string message(const char* pattern,
                                          std::initializer_list<uint64_t> numbers) {
   std::string out;
   const uint64_t* next = numbers.begin();
-  for (const char* p = pattern; *p != 0; ++p) {
-    if (*p != '%' || next == numbers.end()) {
-      out += *p;
-      continue;
-    }
+  for (const char* p = pattern; *p != 0;) {
+    // The text up to the next substituted '%', appended at once.
+    const char* end = p;
+    while (*end != 0 && (*end != '%' || next == numbers.end())) ++end;
+    out.append(p, static_cast<size_t>(end - p));
+    if (*end == 0) break;
     append_decimal(*next++, &out);
+    p = end + 1;
   }
   return out;
 }

@@ -39,14 +39,15 @@ std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid
 /// Encodes quantized positions (in decoded vertex order) given the decoded triangles' newest
 /// triangles: vertices in id order are predicted by the average of all parallelograms available
 /// across already-decoded triangles (the paper's eq. (1)), each placed by a triangle shape (its
-/// offset shrunk along and across the edge, an equilateral apex blended in) where that pays, else
-/// by decoded neighbours, else by the previous vertex;
-/// residuals are entropy-coded. `lattice` is the grid's QuantizationGrid::lattice (0: none); the
-/// encoder codes on that lattice when its estimate says that is smaller. Appends the current
-/// version's geometry section (docs/FORMAT.md) to `out`. O(V + T).
+/// offset shrunk, an equilateral apex blended in) where that pays, else by decoded neighbours
+/// (a step out from the nearest), else by the previous vertex; the prediction follows its
+/// neighbours' misses along the normal where that pays (curvature); residuals are entropy-coded.
+/// `lattice` is the grid's QuantizationGrid::lattice (0: none); the encoder codes on that lattice
+/// when its estimate says that is smaller. Appends the current version's geometry section
+/// (docs/FORMAT.md) to `out`. O(V + T).
 void encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q, uint32_t lattice,
                      std::vector<uint8_t>* out);
-/// Decodes a geometry section of stream `version` (1 to 5), for `vertex_count` vertices. `newest`
+/// Decodes a geometry section of stream `version` (1 to 6), for `vertex_count` vertices. `newest`
 /// is decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
 /// each neighbour before the vertex it is filed under, each o too or kNoVertexId). Errors name
 /// `source` and the byte offset. O(V + T); allocates O(V) beyond the result.

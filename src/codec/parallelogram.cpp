@@ -51,6 +51,11 @@
 // around equilateral (smoothed isosurfaces, raw marching cubes) the apex does.
 // The encoder chooses the shape per mesh (choose_shape).
 //
+// The refinements (stream version 6; Refinement): a vertex without parallelograms steps out from
+// the decoded neighbour it copied, away from that neighbour's own neighbours (extrapolation), and
+// a prediction follows its neighbours' misses along the normal (the curvature step). The encoder
+// chooses both weights per mesh (choose_extrapolation, choose_curvature and a trial coding).
+//
 // Speed: every triangle has exactly one newest vertex, so grouping each triangle (n, p, o) under
 // its newest vertex (NewestTriangles, which the connectivity decoder builds as it writes the
 // triangles) gives every vertex its parallelograms in one contiguous run: the decoding loop reads
@@ -196,6 +201,27 @@ constexpr int kApexShift = 2;
 constexpr uint8_t kShapeFlag = 1u << kApexShift;
 /// floor(sqrt(3) 2^45), the apex's height over its edge in fixed point.
 constexpr int64_t kRootThree = 60941120090265;
+/// From version 6 on, bit kRefineFlag says that the two weights of the Refinement follow (after
+/// the shape's, if any).
+constexpr uint8_t kRefineFlag = 1u << (kApexShift + 1);
+
+/// Stream version 6's two refinements of a prediction, each in sixteenths, 0 (off) to
+/// kMaxShapeWeight:
+/// - extrapolation: a vertex with no triangle of decoded vertices (about one in ten on decimated
+///   meshes, by the decoding order) is predicted from a decoded neighbour u. Such a vertex lies
+///   beyond the decoded part of u's ring, so the prediction steps out from u, away from the mean
+///   c of u's own triangles' other vertices: q[u] + floor((extrapolation (q[u] - c) + 8) / 16)
+///   (step_out);
+/// - curvature: a parallelogram continues the surface flat, so on a curved surface it misses
+///   along the normal by about as much as its neighbours' own predictions missed. The
+///   prediction moves along its parallelograms' normal by `curvature` sixteenths of the normal
+///   part of its neighbours' mean residual (curvature_step), before the tangent plane, if any.
+///   Not with lattice coding.
+struct Refinement {
+  int32_t extrapolation = 0;
+  int32_t curvature = 0;
+  bool none() const { return extrapolation == 0 && curvature == 0; }
+};
 
 /// How a parallelogram's vertex is placed from the triangle (n, p, o) across its edge, in
 /// sixteenths (stream version 5; version 4's apex weight is a special case): from the edge's
@@ -267,17 +293,44 @@ inline void shaped_parallelogram(const int32_t* n, const int32_t* p, const int32
   }
 }
 
+/// A step from `center` away from the mean of the n and p of vertex w's k >= 1 entries, per axis:
+///   out[j] = clamp(center[j] + floor((weight (center[j] - m[j]) + 8) / 16), int32),
+///   m[j] = floor((S[j] + k) / (2k)), S[j] the sum of values[n][j] + values[p][j] over the entries
+/// (rounded_mean). Both refinements (Refinement) take such steps. |center - m| < 2^32 and
+/// |weight| <= 32: no overflow. `out` may be `center`.
+OSTEON_NOINLINE void entry_step(uint32_t w, const NewestTriangles& nt, const int32_t* values,
+                                const int64_t center[3], int32_t weight, int64_t out[3]) {
+  const NewestTriangle* const begin = nt.entries.data() + nt.first[w];
+  const NewestTriangle* const end = nt.entries.data() + nt.first[w + 1];
+  for (int j = 0; j < 3; ++j) {
+    int64_t sum = 0;
+    for (const NewestTriangle* e = begin; e != end; ++e) {
+      sum += int64_t{values[3 * size_t{e->n} + j]} + values[3 * size_t{e->p} + j];
+    }
+    const int64_t step = (weight * (center[j] - rounded_mean(sum, 2 * (end - begin))) + 8) >> 4;
+    out[j] = std::clamp<int64_t>(center[j] + step, INT32_MIN, INT32_MAX);
+  }
+}
+
+/// The extrapolation (Refinement) of the prediction `pred` = q[u] from a decoded neighbour u, in
+/// place: entry_step(u, q, q[u], weight); nothing where u has no entries.
+inline void step_out(uint32_t u, const NewestTriangles& nt, const int32_t* xyz, int32_t weight,
+                     int64_t pred[3]) {
+  if (nt.first[u] != nt.first[u + 1]) entry_step(u, nt, xyz, pred, weight, pred);
+}
+
 // The prediction of vertex v from the vertices before it; the encoder and the decoder call this
 // with the same records for vertices < v, so they agree bit for bit. kTwoCodings (the encoder
 // measuring two codings of the same prediction at once): also the local activity of a second
 // coding's symbols, into other_local. shape: how each parallelogram places the vertex
-// (TriangleShape). placed: the encoder's shaped_parallelogram() of every entry with an o, computed
-// once for the several codings it measures (nullptr: computed here).
+// (TriangleShape); extrapolation: Refinement's, for a vertex without parallelograms. placed: the
+// encoder's shaped_parallelogram() of every entry with an o, computed once for the several codings
+// it measures (nullptr: computed here).
 using Placed = std::array<int64_t, 3>;
 template <bool kTwoCodings = false>
 inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
                           const uint32_t* symbols, PredictionMode mode, const TriangleShape& shape,
-                          const Placed* placed_entries = nullptr,
+                          int32_t extrapolation, const Placed* placed_entries = nullptr,
                           const uint32_t* other_symbols = nullptr,
                           uint32_t* other_local = nullptr) {
   Prediction out;
@@ -296,6 +349,7 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
       if constexpr (kTwoCodings) other_local[k] = u != kNoVertexId ? lane(other_symbols[u], k) : 0;
       out.xyz[k] = v > 0 ? xyz[3 * size_t{w} + k] : 0;
     }
+    if (extrapolation != 0 && u != kNoVertexId) step_out(u, nt, xyz, extrapolation, out.xyz);
     return out;
   }
   const NewestTriangle* const begin = e;
@@ -512,6 +566,38 @@ inline int64_t on_tangent_plane(const Normal& normal, int64_t pred, const int64_
   return std::clamp<int64_t>(moved, INT32_MIN, INT32_MAX);
 }
 
+/// A vertex's own prediction residual as its neighbours' curvature step reads it: clamped to
+/// +-kResidualReach, so that the step's products fit 64 bits.
+constexpr int64_t kResidualReach = int64_t{1} << 20;
+inline int32_t fed_residual(int64_t value, int64_t pred) {
+  return static_cast<int32_t>(std::clamp(value - pred, -kResidualReach, kResidualReach));
+}
+
+/// The curvature step (Refinement) of vertex v, whose normal has an axis (so v has entries), in
+/// place: `base` moves along the normal N by `weight` sixteenths of the normal part of m, the
+/// rounded mean of the fed residuals (3 per vertex) of v's entries' n and p (entry_step with
+/// weight -16 from the origin):
+///   n = N >> max(w - 12, 0), w the bit length of its largest |component| (so |n[j]| < 2^12);
+///   t = floor(weight (m . n) 2^12 / (n . n));  base[j] += floor((t n[j] + 2^15) / 2^16).
+/// |m| <= 2^20 and |n[j]| < 2^12, so |weight (m . n) 2^12| < 2^51 and |t n[j]| < 2^43.
+OSTEON_NOINLINE void curvature_step(uint32_t v, const NewestTriangles& nt, const int32_t* fed,
+                                    const Normal& normal, int32_t weight, int64_t base[3]) {
+  const int64_t origin[3] = {0, 0, 0};
+  int64_t mean[3];
+  entry_step(v, nt, fed, origin, -16, mean);
+  const int width = static_cast<int>(std::bit_width(
+      magnitude(normal.xyz[0]) | magnitude(normal.xyz[1]) | magnitude(normal.xyz[2])));
+  int64_t n[3];
+  int64_t dot = 0, norm = 0;
+  for (int j = 0; j < 3; ++j) {
+    n[j] = static_cast<int64_t>(normal.xyz[j]) >> std::max(width - 12, 0);
+    dot += mean[j] * n[j];
+    norm += n[j] * n[j];
+  }
+  const int64_t t = floor_div(weight * dot * (int64_t{1} << 12), norm);
+  for (int j = 0; j < 3; ++j) base[j] += (t * n[j] + (int64_t{1} << 15)) >> 16;
+}
+
 /// The plane index nearest the prediction: floor((pred + floor(L / 2)) / L).
 inline int64_t nearest_plane(int64_t pred, int64_t lattice) {
   return floor_div(pred + lattice / 2, lattice);
@@ -532,26 +618,33 @@ inline uint32_t free_context(PredictionKind kind, uint32_t local) {
 // go the same way for every vertex of a stream.
 OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel& model,
                                    PredictionMode mode, const TriangleShape& shape,
-                                   bool tangent_plane, int64_t lattice, SymbolDecoder& dec,
-                                   ByteReader& in, const std::string& source,
+                                   const Refinement& refine, bool tangent_plane, int64_t lattice,
+                                   SymbolDecoder& dec, ByteReader& in, const std::string& source,
                                    QuantizedPositions* q) {
   const uint32_t vertex_count = static_cast<uint32_t>(q->xyz.size() / 3);
   // Written before being read, so not cleared.
   const std::unique_ptr<uint32_t[]> symbols(new uint32_t[vertex_count]);
+  // The curvature step's fed residuals, 3 per vertex; only where the stream has one.
+  const std::unique_ptr<int32_t[]> fed(
+      new int32_t[refine.curvature != 0 ? 3 * size_t{vertex_count} : 0]);
   int32_t* const xyz = q->xyz.data();
   SymbolDecoder::Cursor cursor = dec.cursor();  // in registers through the loop
   uint32_t previous[3] = {0, 0, 0};
   uint32_t mask = 0;  // lattice coding: the axes on lattice planes
   for (uint32_t v = 0; v < vertex_count; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode, shape);
-    // Lattice coding and the tangent plane read the normal; never both (decode_geometry checks).
+    const Prediction pred = predict(v, nt, xyz, symbols.get(), mode, shape, refine.extrapolation);
+    // Lattice coding reads the normal, and so do the tangent plane and the curvature step, which
+    // lattice coding never has (decode_geometry checks).
     Normal normal;
-    if (lattice != 0 || tangent_plane) normal = parallelogram_normal(v, nt, xyz);
+    if (lattice != 0 || tangent_plane || refine.curvature != 0) {
+      normal = parallelogram_normal(v, nt, xyz);
+    }
     uint32_t context[3];
     if (lattice == 0) [[likely]] {
-      // normal.axis is none without the tangent plane.
+      // The tangent plane's axis codes in contexts of its own (none without the plane).
+      const uint32_t plane_axis = tangent_plane ? normal.axis : kNoAxis;
       for (int k = 0; k < 3; ++k) {
-        const uint32_t kind = ContextModel::axis_kind(pred.kind, k, normal.axis);
+        const uint32_t kind = ContextModel::axis_kind(pred.kind, k, plane_axis);
         context[k] = model.context(kind, pred.local[k], previous[k], pred, k);
       }
     } else {
@@ -576,10 +669,21 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
       rest[1] = (all >> bits[0]) & ((uint64_t{1} << bits[1]) - 1);
       rest[2] = all >> (bits[0] + bits[1]);
     } else {
-      for (int k = 0; k < 3; ++k) {
-        rest[k] = bits[k] > 32 ? dec.get_bits(cursor, 32) |
-                                     dec.get_bits(cursor, static_cast<int>(bits[k]) - 32) << 32
-                               : dec.get_bits(cursor, static_cast<int>(bits[k]));
+      // Up to 32 bits a read (the same bits, in the same order): one read in the loop, not
+      // unrolled, keeps this rare path small in the WebAssembly decoder's download.
+      int axis = 0, done = 0;
+      rest[0] = rest[1] = rest[2] = 0;
+#if defined(__clang__)
+#pragma clang loop unroll(disable)
+#endif
+      while (axis < 3) {
+        const int count = std::min(static_cast<int>(bits[axis]) - done, 32);
+        rest[axis] |= dec.get_bits(cursor, count) << done;
+        done += count;
+        if (done == static_cast<int>(bits[axis])) {
+          ++axis;
+          done = 0;
+        }
       }
     }
     int64_t r[3];
@@ -587,6 +691,9 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     for (int k = 0; k < 3; ++k) {
       r[k] = unzigzag(kLeadingBits[symbol[k]] | rest[k]);
       base[k] = pred.xyz[k];
+    }
+    if (normal.axis != kNoAxis && refine.curvature != 0) {
+      curvature_step(v, nt, fed.get(), normal, refine.curvature, base);
     }
     if (normal.axis != kNoAxis && tangent_plane) {
       base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
@@ -599,6 +706,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
       in_range = in_range & (value >= INT32_MIN) & (value <= INT32_MAX);
       xyz[3 * size_t{v} + k] = static_cast<int32_t>(value);
       previous[k] = symbol[k];
+      if (refine.curvature != 0) fed[3 * size_t{v} + k] = fed_residual(value, pred.xyz[k]);
     }
     symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
     if (!cursor.ok || !in_range) [[unlikely]] {
@@ -611,11 +719,20 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
 }
 
 // The encoder's tangent plane for v, whose coordinates are known: `base` (its prediction) with
-// the normal's largest axis moved onto the plane, as the decoder will move it.
+// the normal's largest axis moved onto the plane, as the decoder will move it; with a curvature
+// weight, first moved by the curvature step, from the fed residuals of the vertices before v
+// (v's own is written here).
 inline uint32_t move_onto_tangent_plane(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
-                                        int64_t base[3]) {
+                                        int64_t base[3], bool tangent_plane = true,
+                                        int32_t curvature = 0, int32_t* fed = nullptr) {
+  if (!tangent_plane && curvature == 0) return kNoAxis;
+  for (int k = 0; curvature != 0 && k < 3; ++k) {
+    fed[3 * size_t{v} + k] = fed_residual(xyz[3 * size_t{v} + k], base[k]);
+  }
   const Normal normal = parallelogram_normal(v, nt, xyz);
   if (normal.axis == kNoAxis) return kNoAxis;
+  if (curvature != 0) curvature_step(v, nt, fed, normal, curvature, base);
+  if (!tangent_plane) return kNoAxis;
   int64_t r[3];
   for (int k = 0; k < 3; ++k) r[k] = int64_t{xyz[3 * size_t{v} + k]} - base[k];
   base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
@@ -646,6 +763,7 @@ inline uint32_t code_plain(const int32_t* at, const int64_t base[3], const Predi
 struct LoopState {
   uint32_t next = 0;
   std::vector<uint32_t> symbols;  // per vertex before `next`: its packed symbols
+  std::vector<int32_t> fed;       // with a curvature weight: 3 per vertex, the fed residuals
   uint32_t previous[3] = {0, 0, 0};
   uint32_t previous_mask = 0;
 };
@@ -656,19 +774,23 @@ struct LoopState {
 // (the mask symbol has no raw bits).
 template <class Sink>
 void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, const TriangleShape& shape, const Placed* placed,
-                 bool tangent_plane, int64_t lattice, uint32_t end, LoopState* state, Sink&& sink) {
+                 PredictionMode mode, const TriangleShape& shape, const Refinement& refine,
+                 const Placed* placed, bool tangent_plane, int64_t lattice, uint32_t end,
+                 LoopState* state, Sink&& sink) {
   assert(state->next <= end && end <= q.xyz.size() / 3);
+  assert(refine.curvature == 0 || lattice == 0);
   state->symbols.resize(end);
+  if (refine.curvature != 0) state->fed.resize(3 * size_t{end});
   uint32_t* const symbols = state->symbols.data();
   const int32_t* xyz = q.xyz.data();
   uint32_t* const previous = state->previous;
   uint32_t previous_mask = state->previous_mask;
   for (uint32_t v = state->next; v < end; ++v) {
-    const Prediction pred = predict(v, nt, xyz, symbols, mode, shape, placed);
+    const Prediction pred = predict(v, nt, xyz, symbols, mode, shape, refine.extrapolation, placed);
     if (lattice == 0) {
       int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
-      const uint32_t axis = tangent_plane ? move_onto_tangent_plane(v, nt, xyz, base) : kNoAxis;
+      const uint32_t axis = move_onto_tangent_plane(v, nt, xyz, base, tangent_plane,
+                                                    refine.curvature, state->fed.data());
       symbols[v] =
           code_plain(xyz + 3 * size_t{v}, base, pred, axis, pred.local, model, previous, sink);
       continue;
@@ -705,17 +827,18 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
 // they stand, at the same vertex.
 template <class FlatSink, class PlaneSink>
 void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const ContextModel& model,
-                 PredictionMode mode, const TriangleShape& shape, const Placed* placed,
-                 uint32_t end, LoopState* flat, LoopState* plane, FlatSink&& flat_sink,
-                 PlaneSink&& plane_sink) {
+                 PredictionMode mode, const TriangleShape& shape, int32_t extrapolation,
+                 const Placed* placed, uint32_t end, LoopState* flat, LoopState* plane,
+                 FlatSink&& flat_sink, PlaneSink&& plane_sink) {
   assert(flat->next == plane->next && flat->next <= end && end <= q.xyz.size() / 3);
   flat->symbols.resize(end);
   plane->symbols.resize(end);
   const int32_t* xyz = q.xyz.data();
   for (uint32_t v = flat->next; v < end; ++v) {
     uint32_t plane_local[3];
-    const Prediction pred = predict<true>(v, nt, xyz, flat->symbols.data(), mode, shape, placed,
-                                          plane->symbols.data(), plane_local);
+    const Prediction pred =
+        predict<true>(v, nt, xyz, flat->symbols.data(), mode, shape, extrapolation, placed,
+                      plane->symbols.data(), plane_local);
     const int32_t* at = xyz + 3 * size_t{v};
     int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
     flat->symbols[v] =
@@ -812,7 +935,7 @@ TriangleShape choose_shape(const NewestTriangles& nt, const QuantizedPositions& 
       }
       const uint32_t d = x.axis, a = d == 0 ? 1 : 0, b = d == 2 ? 1 : 2;
       const double across = r[d] + (x.normal[a] * r[a] + x.normal[b] * r[b]) / x.normal[d];
-      plane += bits[a] + bits[b] + bit_length(zigzag(std::llround(across)));
+      plane += bits[a] + bits[b] + bit_length(zigzag(round_half_away(across)));
     }
     return std::min(flat, plane);
   };
@@ -871,6 +994,90 @@ TriangleShape choose_shape(const NewestTriangles& nt, const QuantizedPositions& 
   return double(best_cost) <= (1 - kShapeGain) * double(plain) ? best : TriangleShape();
 }
 
+// The extrapolation weight (Refinement) the encoder codes with: over the vertices before `end`
+// predicted from a decoded neighbour, the even weight whose residuals have the fewest bits (0
+// where none has fewer than no step). Such a vertex's prediction reads only decoded coordinates,
+// so each weight's residuals are exactly those it would code.
+int32_t choose_extrapolation(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t end) {
+  constexpr int32_t kWeights = kMaxShapeWeight / 2 + 1;  // 0, 2, .., kMaxShapeWeight
+  uint64_t cost[kWeights] = {};
+  const int32_t* xyz = q.xyz.data();
+  for (uint32_t v = 1; v < end; ++v) {
+    const uint32_t u = nt.neighbour[v];
+    if (nt.first[v] != nt.first[v + 1] || u == kNoVertexId || nt.first[u] == nt.first[u + 1]) {
+      continue;
+    }
+    // The mean entry_step steps away from, once; then each weight's step as entry_step takes it.
+    const int64_t origin[3] = {0, 0, 0};
+    int64_t mean[3];
+    entry_step(u, nt, xyz, origin, -16, mean);
+    for (int32_t i = 0; i < kWeights; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const int64_t at = xyz[3 * size_t{u} + k];
+        const int64_t pred =
+            std::clamp<int64_t>(at + ((2 * i * (at - mean[k]) + 8) >> 4), INT32_MIN, INT32_MAX);
+        cost[i] += std::bit_width(zigzag(int64_t{xyz[3 * size_t{v} + k]} - pred));
+      }
+    }
+  }
+  int32_t best = 0;
+  for (int32_t i = 1; i < kWeights; ++i) best = cost[i] < cost[best] ? i : best;
+  return 2 * best;
+}
+
+// The curvature weight (Refinement) the encoder proposes for the plain coding it keeps (its
+// parallelogram mode, with the tangent plane or not): the residuals' bit lengths on
+// kCurvatureSamples vertices spread over the first `end` estimate each of kCurvatureWeights; the
+// best is proposed only where it is estimated to save kCurvatureGain (encode_geometry then
+// measures it). The neighbours' fed residuals are their own predictions' (predict reads only
+// decoded coordinates; `symbols`, the kept coding's for the vertices before `end`, only set
+// contexts).
+constexpr int32_t kCurvatureWeights[] = {0, 4, 8, 12, 16, 20, 24};
+constexpr uint32_t kCurvatureSamples = 128;
+// With the tangent plane, the estimate promises several times what coding gains (on BodyParts3D's
+// bones 1-4% for nothing), so a weight is proposed there only above kCurvaturePlaneGain.
+constexpr double kCurvatureGain = 0.01;
+constexpr double kCurvaturePlaneGain = 0.04;
+int32_t choose_curvature(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t end,
+                         PredictionMode mode, const TriangleShape& shape, int32_t extrapolation,
+                         bool tangent_plane, const uint32_t* symbols) {
+  const int32_t* xyz = q.xyz.data();
+  std::vector<int32_t> fed(3 * size_t{end});  // the sampled vertices' neighbours'
+  constexpr size_t kWeights = std::size(kCurvatureWeights);
+  uint64_t cost[kWeights] = {};
+  const uint32_t stride = std::max(1u, end / kCurvatureSamples);
+  for (uint32_t v = 0; v < end; v += stride) {
+    const Normal normal = parallelogram_normal(v, nt, xyz);
+    if (normal.axis == kNoAxis) continue;
+    for (uint32_t i = nt.first[v]; i < nt.first[v + 1]; ++i) {
+      for (const uint32_t u : {nt.entries[i].n, nt.entries[i].p}) {
+        const Prediction at = predict(u, nt, xyz, symbols, mode, shape, extrapolation);
+        for (int k = 0; k < 3; ++k) {
+          fed[3 * size_t{u} + k] = fed_residual(xyz[3 * size_t{u} + k], at.xyz[k]);
+        }
+      }
+    }
+    const Prediction pred = predict(v, nt, xyz, symbols, mode, shape, extrapolation);
+    for (size_t w = 0; w < kWeights; ++w) {
+      int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
+      if (kCurvatureWeights[w] != 0) {
+        curvature_step(v, nt, fed.data(), normal, kCurvatureWeights[w], base);
+      }
+      int64_t r[3];
+      for (int k = 0; k < 3; ++k) r[k] = int64_t{xyz[3 * size_t{v} + k]} - base[k];
+      const uint32_t d = normal.axis;
+      if (tangent_plane) {
+        r[d] = int64_t{xyz[3 * size_t{v} + d]} - on_tangent_plane(normal, base[d], r);
+      }
+      for (int k = 0; k < 3; ++k) cost[w] += std::bit_width(zigzag(r[k]));
+    }
+  }
+  size_t best = 0;
+  for (size_t w = 1; w < kWeights; ++w) best = cost[w] < cost[best] ? w : best;
+  const double gain = tangent_plane ? kCurvaturePlaneGain : kCurvatureGain;
+  return double(cost[best]) <= (1 - gain) * double(cost[0]) ? kCurvatureWeights[best] : 0;
+}
+
 }  // namespace
 
 void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t lattice,
@@ -892,6 +1099,8 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   const uint32_t measured = std::min(
       {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
   const TriangleShape shape = choose_shape(nt, q, measured, lattice);
+  Refinement refine;  // the curvature weight is chosen for the coding kept, below
+  refine.extrapolation = choose_extrapolation(nt, q, measured);
   // Each entry's shaped value, once for every coding measured and the one kept, where the apex
   // makes it costly (a square root and a division); without it, computing it again is cheaper
   // than reading it back.
@@ -920,7 +1129,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
     };
   };
   auto run = [&](Coding& coding, uint32_t end, auto&& sink) {
-    encode_loop(nt, q, model, PredictionMode(coding.mode % kModes), shape, placed_entries,
+    encode_loop(nt, q, model, PredictionMode(coding.mode % kModes), shape, refine, placed_entries,
                 coding.mode >= kModes, coding.lattice, end, &coding.state, sink);
   };
   // The candidates, in the order that breaks ties: plain residuals in modes 0 to 3 (the
@@ -941,14 +1150,20 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
     add(static_cast<uint8_t>(m), lattice, kLatticeContexts);
   }
   std::vector<uint32_t> histogram;  // one coding's at a time
-  auto estimate = [&](const Coding& c) {
+  // A coding's size from what it queued: all of it, or (plain residuals) its first `entries`
+  // symbols, with their raw bits.
+  auto estimate = [&](const Coding& c, size_t entries = SIZE_MAX) {
     const uint32_t contexts = c.lattice != 0 ? kLatticeContexts : model.contexts(c.mode >= kModes);
     histogram.assign(size_t{contexts} * kResidualSymbols, 0);
-    for (uint32_t entry : c.enc.queued()) {
-      ++histogram[size_t{entry >> SymbolEncoder::kContextShift} * kResidualSymbols +
-                  (entry & ((1u << SymbolEncoder::kContextShift) - 1))];
+    const std::vector<uint32_t>& queued = c.enc.queued();
+    const bool all = entries >= queued.size();
+    uint64_t raw_bits = 0;
+    for (size_t i = 0; i < (all ? queued.size() : entries); ++i) {
+      const uint32_t symbol = queued[i] & ((1u << SymbolEncoder::kContextShift) - 1);
+      ++histogram[size_t{queued[i] >> SymbolEncoder::kContextShift} * kResidualSymbols + symbol];
+      raw_bits += kRawBits[symbol];
     }
-    return estimated_bits(histogram, contexts, c.enc.raw_bit_count());
+    return estimated_bits(histogram, contexts, all ? c.enc.raw_bit_count() : raw_bits);
   };
   // Two stages: the first kFirstStage vertices, where one coding usually leads every other by
   // more than kClearLead already; only a close call is measured on the whole prefix (and that
@@ -964,8 +1179,8 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
       Coding& flat = codings[m];
       Coding& plane = codings[m + kModes];
       if (out_of_it[m] && out_of_it[m + kModes]) continue;
-      encode_pair(nt, q, model, PredictionMode(m), shape, placed_entries, end, &flat.state,
-                  &plane.state, queue(flat.enc), queue(plane.enc));
+      encode_pair(nt, q, model, PredictionMode(m), shape, refine.extrapolation, placed_entries, end,
+                  &flat.state, &plane.state, queue(flat.enc), queue(plane.enc));
     }
     for (size_t i = 2 * kModes; i < codings.size(); ++i) {
       if (!out_of_it[i]) run(codings[i], end, queue(codings[i].enc));
@@ -985,13 +1200,39 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
     }
     if (clear) break;
   }
+  // The curvature step, for a plain coding: a weight its estimate proposes is measured, on the
+  // first kFirstStage vertices (the kept coding again, with it, against the kept coding's own
+  // first symbols), and kept only if that measures smaller: the estimate proposes weights on
+  // meshes where coding gains nothing. A kept weight's coding resumes from there.
+  if (codings[best].lattice == 0) {
+    const uint8_t mode = codings[best].mode;
+    const uint32_t end = std::min(kFirstStage, codings[best].state.next);
+    refine.curvature =
+        choose_curvature(nt, q, codings[best].state.next, PredictionMode(mode % kModes), shape,
+                         refine.extrapolation, mode >= kModes, codings[best].state.symbols.data());
+    if (refine.curvature != 0) {
+      add(mode, 0, model.contexts(mode >= kModes));
+      Coding& with = codings.back();
+      run(with, end, queue(with.enc));
+      if (estimate(with, 3 * size_t{end}) < estimate(codings[best], 3 * size_t{end})) {
+        best = codings.size() - 1;
+      } else {
+        refine.curvature = 0;
+      }
+    }
+  }
   Coding& kept = codings[best];
 
   const bool shaped = !shape.parallelogram();
-  out->push_back(static_cast<uint8_t>(kept.mode | (shaped ? kShapeFlag : 0)));
+  out->push_back(static_cast<uint8_t>(kept.mode | (shaped ? kShapeFlag : 0) |
+                                      (refine.none() ? 0 : kRefineFlag)));
   if (shaped) {
     out->push_back(static_cast<uint8_t>(shape.scale));
     out->push_back(static_cast<uint8_t>(shape.apex));
+  }
+  if (!refine.none()) {
+    out->push_back(static_cast<uint8_t>(refine.extrapolation));
+    out->push_back(static_cast<uint8_t>(refine.curvature));
   }
   ByteWriter writer(out);
   writer.write_varint(kept.lattice);
@@ -1014,15 +1255,22 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   const uint32_t high = mode >> kApexShift;
   mode &= (1u << kApexShift) - 1;
   TriangleShape shape;
+  Refinement refine;
   if (version == 4) {
     shape = apex_shape(high);
     known = known && high < kApexWeights;
-  } else if (version >= 5 && high == kShapeFlag >> kApexShift) {
-    uint8_t w[2] = {0, 0};
-    for (uint8_t& x : w) known = known && in.read_le(&x) && x <= kMaxShapeWeight;
-    shape = {w[0], w[1]};
   } else {
-    known = known && high == 0;
+    // From version 5: the shape's flag; from version 6, the refinements' too.
+    const uint32_t flags = (version >= 6   ? kShapeFlag | kRefineFlag
+                            : version == 5 ? kShapeFlag
+                                           : 0);
+    known = known && (high & ~(flags >> kApexShift)) == 0;
+    uint8_t w[4] = {16, 0, 0, 0};
+    for (int i = 0; i < 4; ++i) {
+      if ((high >> (i / 2)) & 1) known = known && in.read_le(&w[i]) && w[i] <= kMaxShapeWeight;
+    }
+    shape = {w[0], w[1]};
+    refine = {w[2], w[3]};
   }
   if (!known || mode >= (version >= 3 ? 2 * kModes : kModes)) {
     return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
@@ -1030,7 +1278,7 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   }
   uint64_t lattice = 0;  // version 2: the lattice period, 0 for none
   if (version >= 2 && (!in.read_varint(&lattice) || lattice == 1 || lattice > kMaxLattice ||
-                       (lattice != 0 && mode >= kModes))) {
+                       (lattice != 0 && (mode >= kModes || refine.curvature != 0)))) {
     return error(ErrorCode::kInvalidData, source, "geometry: bad lattice period",
                  at_byte(in.offset()));
   }
@@ -1047,7 +1295,7 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
   }
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
-  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), shape,
+  OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), shape, refine,
                                      mode >= kModes, int64_t(lattice), dec, in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
   return q;

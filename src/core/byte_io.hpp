@@ -223,13 +223,15 @@ inline std::string quote_token(std::string_view token) {
 /// Appends `value` in decimal. By hand, for messages: std::to_string would bring its tables into
 /// the WebAssembly decoder's budgeted download.
 inline void append_decimal(uint64_t value, std::string* out) {
+  // Written from the end, then appended at once (the WebAssembly decoder then needs no
+  // push_back).
   char digits[20];
-  int n = 0;
+  char* first = digits + sizeof digits;
   do {
-    digits[n++] = static_cast<char>('0' + value % 10);
+    *--first = static_cast<char>('0' + value % 10);
     value /= 10;
   } while (value != 0);
-  while (n > 0) out->push_back(digits[--n]);
+  out->append(first, static_cast<size_t>(digits + sizeof digits - first));
 }
 
 /// "byte 84" for messages.

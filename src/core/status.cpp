@@ -12,7 +12,7 @@ Status error(ErrorCode code, const std::string& file, const std::string& what,
   if (!where.empty()) {
     message += " (";
     message += where;
-    message += ')';
+    message += ")";
   }
   return Status(code, std::move(message));
 }

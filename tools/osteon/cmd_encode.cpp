@@ -71,6 +71,7 @@ int run_encode(const EncodeArgs& args) {
         {"grid_step", report.grid_step},
         {"prediction_mode", report.prediction_mode},  // docs/FORMAT.md, geometry section
         {"triangle_shape", {report.shape_scale, report.shape_apex}},
+        {"refinements", {report.extrapolation, report.curvature}},
         {"encode_ms", ms}};
     std::cout << j.dump(2) << "\n";
   } else {
