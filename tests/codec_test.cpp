@@ -481,9 +481,10 @@ namespace codec_test {
 
 // Golden streams freeze the bitstream: the encoder must keep producing exactly these bytes for
 // these meshes, and the decoder must keep reading them. A deliberate format change bumps the
-// stream version and regenerates them with OSTEON_WRITE_GOLDEN=1.
+// stream version and regenerates them with OSTEON_WRITE_GOLDEN=1; the previous version's files
+// stay, as older goldens (kOlderVersions).
 struct Golden {
-  const char* file;
+  const char* name;  // the file's name without its version (golden_file)
   // A phantom part (detail 1, seed 1); nullptr: make_lattice_sphere(2, 10, 1.3); "jittered":
   // make_jittered_sphere(3, 10, 0.8).
   const char* part;
@@ -495,55 +496,26 @@ struct Golden {
   int detail = 1;  // the phantom's
 };
 constexpr Golden kGoldens[] = {
-    {"vertebra_l1_b12_v6.ostm", "vertebra_l1", 12, false},      // genus 1
-    {"pelvis_b14_v6.ostm", "pelvis", 14, false},                // 4 holes
-    {"scapula_l_b10_v6.ostm", "scapula_l", 10, false},          // non-manifold edges
-    {"femur_r_b16_normals_v6.ostm", "femur_r", 16, true},       // mirrored copy, normals sent
-    {"lattice_sphere_b14_v6.ostm", nullptr, 14, false},         // voxel lattice, the apex
-    {"rib_l1_half_b14_v6.ostm", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
-    {"pelvis_half_b14_v6.ostm", "pelvis", 14, false, 0.5f},     // tangent plane, mean
-    {"jittered_sphere_b14_v6.ostm", "jittered", 14, false},     // the apex
+    {"vertebra_l1_b12", "vertebra_l1", 12, false},      // genus 1
+    {"pelvis_b14", "pelvis", 14, false},                // 4 holes
+    {"scapula_l_b10", "scapula_l", 10, false},          // non-manifold edges
+    {"femur_r_b16_normals", "femur_r", 16, true},       // mirrored copy, normals sent
+    {"lattice_sphere_b14", nullptr, 14, false},         // voxel lattice, the apex
+    {"rib_l1_half_b14", "rib_l1", 14, false, 0.5f, 2},  // tangent plane, first only
+    {"pelvis_half_b14", "pelvis", 14, false, 0.5f},     // tangent plane, mean
+    {"jittered_sphere_b14", "jittered", 14, false},     // the apex
 };
-// Streams of earlier versions, frozen before the next: version 1 of the first four, version 2
-// of the first five, version 3 of the first seven, versions 4 and 5 of all eight.
-struct OlderGolden {
-  Golden golden;
+// Streams of earlier versions, frozen before the next, of the first `goldens` of kGoldens.
+struct OlderVersion {
   uint8_t version;
+  size_t goldens;
 };
-constexpr OlderGolden kOlderGoldens[] = {
-    {{"vertebra_l1_b12.ostm", "vertebra_l1", 12, false}, 1},
-    {{"pelvis_b14.ostm", "pelvis", 14, false}, 1},
-    {{"scapula_l_b10.ostm", "scapula_l", 10, false}, 1},
-    {{"femur_r_b16_normals.ostm", "femur_r", 16, true}, 1},
-    {{"vertebra_l1_b12_v2.ostm", "vertebra_l1", 12, false}, 2},
-    {{"pelvis_b14_v2.ostm", "pelvis", 14, false}, 2},
-    {{"scapula_l_b10_v2.ostm", "scapula_l", 10, false}, 2},
-    {{"femur_r_b16_normals_v2.ostm", "femur_r", 16, true}, 2},
-    {{"lattice_sphere_b14_v2.ostm", nullptr, 14, false}, 2},
-    {{"vertebra_l1_b12_v3.ostm", "vertebra_l1", 12, false}, 3},
-    {{"pelvis_b14_v3.ostm", "pelvis", 14, false}, 3},
-    {{"scapula_l_b10_v3.ostm", "scapula_l", 10, false}, 3},
-    {{"femur_r_b16_normals_v3.ostm", "femur_r", 16, true}, 3},
-    {{"lattice_sphere_b14_v3.ostm", nullptr, 14, false}, 3},
-    {{"rib_l1_half_b14_v3.ostm", "rib_l1", 14, false, 0.5f, 2}, 3},
-    {{"pelvis_half_b14_v3.ostm", "pelvis", 14, false, 0.5f}, 3},
-    {{"vertebra_l1_b12_v4.ostm", "vertebra_l1", 12, false}, 4},
-    {{"pelvis_b14_v4.ostm", "pelvis", 14, false}, 4},
-    {{"scapula_l_b10_v4.ostm", "scapula_l", 10, false}, 4},
-    {{"femur_r_b16_normals_v4.ostm", "femur_r", 16, true}, 4},
-    {{"lattice_sphere_b14_v4.ostm", nullptr, 14, false}, 4},
-    {{"rib_l1_half_b14_v4.ostm", "rib_l1", 14, false, 0.5f, 2}, 4},
-    {{"pelvis_half_b14_v4.ostm", "pelvis", 14, false, 0.5f}, 4},
-    {{"jittered_sphere_b14_v4.ostm", "jittered", 14, false}, 4},
-    {{"vertebra_l1_b12_v5.ostm", "vertebra_l1", 12, false}, 5},
-    {{"pelvis_b14_v5.ostm", "pelvis", 14, false}, 5},
-    {{"scapula_l_b10_v5.ostm", "scapula_l", 10, false}, 5},
-    {{"femur_r_b16_normals_v5.ostm", "femur_r", 16, true}, 5},
-    {{"lattice_sphere_b14_v5.ostm", nullptr, 14, false}, 5},
-    {{"rib_l1_half_b14_v5.ostm", "rib_l1", 14, false, 0.5f, 2}, 5},
-    {{"pelvis_half_b14_v5.ostm", "pelvis", 14, false, 0.5f}, 5},
-    {{"jittered_sphere_b14_v5.ostm", "jittered", 14, false}, 5},
-};
+constexpr OlderVersion kOlderVersions[] = {{1, 4}, {2, 5}, {3, 7}, {4, 8}, {5, 8}};
+
+// "pelvis_b14.ostm" for version 1, "pelvis_b14_v6.ostm" for version 6.
+std::string golden_file(const Golden& g, int version) {
+  return std::string(g.name) + (version == 1 ? "" : "_v" + std::to_string(version)) + ".ostm";
+}
 
 std::string golden_dir() {
   return std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden";
@@ -576,7 +548,8 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
   const bool write = std::getenv("OSTEON_WRITE_GOLDEN") != nullptr;
   int extrapolated = 0, curved = 0;  // goldens with each refinement
   for (const Golden& g : kGoldens) {
-    SCOPED_TRACE(g.file);
+    const std::string file = golden_file(g, kStreamVersion);
+    SCOPED_TRACE(file);
     const Mesh* part = golden_mesh(phantom, g);
     ASSERT_NE(part, nullptr);
     EncodeOptions options;
@@ -584,7 +557,7 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
     options.normals = g.normals;
     Result<std::vector<uint8_t>> bytes = encode(*part, options);
     ASSERT_TRUE(bytes.ok()) << bytes.status().message();
-    std::string path = golden_dir() + "/" + g.file;
+    std::string path = golden_dir() + "/" + file;
     if (write) {
       test::write_bytes(path, std::string(bytes->begin(), bytes->end()));
       continue;
@@ -627,28 +600,33 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
 // part decodes to (the versions share the grid; they differ in how they predict and code it).
 TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});
-  for (const OlderGolden& older : kOlderGoldens) {
-    const Golden& g = older.golden;
-    SCOPED_TRACE(g.file);
-    const Mesh* part = golden_mesh(phantom, g);
-    ASSERT_NE(part, nullptr);
-    std::string path = golden_dir() + "/" + g.file;
-    std::vector<uint8_t> frozen = test::read_bytes(path);
-    ASSERT_GT(frozen.size(), 4u);
-    EXPECT_EQ(frozen[4], older.version);
-    Result<Mesh> old_decoded = decode(frozen.data(), frozen.size(), path);
-    ASSERT_TRUE(old_decoded.ok()) << old_decoded.status().message();
-    EncodeOptions options;
-    options.bits = g.bits;
-    options.normals = g.normals;
-    Result<std::vector<uint8_t>> bytes = encode(*part, options);
-    ASSERT_TRUE(bytes.ok()) << bytes.status().message();
-    Result<Mesh> new_decoded = decode(bytes->data(), bytes->size());
-    ASSERT_TRUE(new_decoded.ok()) << new_decoded.status().message();
-    EXPECT_EQ(old_decoded->indices, new_decoded->indices);
-    EXPECT_EQ(old_decoded->positions, new_decoded->positions);
-    EXPECT_EQ(old_decoded->normals, new_decoded->normals);
+  size_t files = 0;
+  for (const OlderVersion& older : kOlderVersions) {
+    for (size_t i = 0; i < older.goldens; ++i) {
+      const Golden& g = kGoldens[i];
+      const std::string path = golden_dir() + "/" + golden_file(g, older.version);
+      SCOPED_TRACE(path);
+      const Mesh* part = golden_mesh(phantom, g);
+      ASSERT_NE(part, nullptr);
+      std::vector<uint8_t> frozen = test::read_bytes(path);
+      ASSERT_GT(frozen.size(), 4u);
+      EXPECT_EQ(frozen[4], older.version);
+      Result<Mesh> old_decoded = decode(frozen.data(), frozen.size(), path);
+      ASSERT_TRUE(old_decoded.ok()) << old_decoded.status().message();
+      EncodeOptions options;
+      options.bits = g.bits;
+      options.normals = g.normals;
+      Result<std::vector<uint8_t>> bytes = encode(*part, options);
+      ASSERT_TRUE(bytes.ok()) << bytes.status().message();
+      Result<Mesh> new_decoded = decode(bytes->data(), bytes->size());
+      ASSERT_TRUE(new_decoded.ok()) << new_decoded.status().message();
+      EXPECT_EQ(old_decoded->indices, new_decoded->indices);
+      EXPECT_EQ(old_decoded->positions, new_decoded->positions);
+      EXPECT_EQ(old_decoded->normals, new_decoded->normals);
+      ++files;
+    }
   }
+  EXPECT_EQ(files, 32u) << "every older golden file";
 }
 
 TEST(CodecFuzzCorpus, EverySavedStreamDecodesOrFailsCleanly) {

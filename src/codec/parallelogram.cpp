@@ -293,13 +293,10 @@ inline void shaped_parallelogram(const int32_t* n, const int32_t* p, const int32
   }
 }
 
-/// A step from `center` away from the mean of the n and p of vertex w's k >= 1 entries, per axis:
-///   out[j] = clamp(center[j] + floor((weight (center[j] - m[j]) + 8) / 16), int32),
-///   m[j] = floor((S[j] + k) / (2k)), S[j] the sum of values[n][j] + values[p][j] over the entries
-/// (rounded_mean). Both refinements (Refinement) take such steps. |center - m| < 2^32 and
-/// |weight| <= 32: no overflow. `out` may be `center`.
-OSTEON_NOINLINE void entry_step(uint32_t w, const NewestTriangles& nt, const int32_t* values,
-                                const int64_t center[3], int32_t weight, int64_t out[3]) {
+/// Per axis, the rounded mean (rounded_mean) of values[n] + values[p] over vertex w's k >= 1
+/// entries: floor((S[j] + k) / (2k)). Both refinements (Refinement) start from it.
+OSTEON_NOINLINE void entry_mean(uint32_t w, const NewestTriangles& nt, const int32_t* values,
+                                int64_t mean[3]) {
   const NewestTriangle* const begin = nt.entries.data() + nt.first[w];
   const NewestTriangle* const end = nt.entries.data() + nt.first[w + 1];
   for (int j = 0; j < 3; ++j) {
@@ -307,16 +304,26 @@ OSTEON_NOINLINE void entry_step(uint32_t w, const NewestTriangles& nt, const int
     for (const NewestTriangle* e = begin; e != end; ++e) {
       sum += int64_t{values[3 * size_t{e->n} + j]} + values[3 * size_t{e->p} + j];
     }
-    const int64_t step = (weight * (center[j] - rounded_mean(sum, 2 * (end - begin))) + 8) >> 4;
-    out[j] = std::clamp<int64_t>(center[j] + step, INT32_MIN, INT32_MAX);
+    mean[j] = rounded_mean(sum, 2 * (end - begin));
   }
 }
 
-/// The extrapolation (Refinement) of the prediction `pred` = q[u] from a decoded neighbour u, in
-/// place: entry_step(u, q, q[u], weight); nothing where u has no entries.
+/// The extrapolation (Refinement) from a decoded neighbour at `at`, away from `mean`
+/// (entry_mean of its entries), `weight` sixteenths of their difference:
+///   clamp(at + floor((weight (at - mean) + 8) / 16), int32).
+/// |at - mean| < 2^32 and weight <= 32: no overflow.
+inline int64_t stepped_out(int64_t at, int64_t mean, int32_t weight) {
+  return std::clamp<int64_t>(at + ((weight * (at - mean) + 8) >> 4), INT32_MIN, INT32_MAX);
+}
+
+/// The extrapolation of the prediction `pred` = q[u] from a decoded neighbour u, in place;
+/// nothing where u has no entries.
 inline void step_out(uint32_t u, const NewestTriangles& nt, const int32_t* xyz, int32_t weight,
                      int64_t pred[3]) {
-  if (nt.first[u] != nt.first[u + 1]) entry_step(u, nt, xyz, pred, weight, pred);
+  if (nt.first[u] == nt.first[u + 1]) return;
+  int64_t mean[3];
+  entry_mean(u, nt, xyz, mean);
+  for (int k = 0; k < 3; ++k) pred[k] = stepped_out(pred[k], mean[k], weight);
 }
 
 // The prediction of vertex v from the vertices before it; the encoder and the decoder call this
@@ -575,16 +582,14 @@ inline int32_t fed_residual(int64_t value, int64_t pred) {
 
 /// The curvature step (Refinement) of vertex v, whose normal has an axis (so v has entries), in
 /// place: `base` moves along the normal N by `weight` sixteenths of the normal part of m, the
-/// rounded mean of the fed residuals (3 per vertex) of v's entries' n and p (entry_step with
-/// weight -16 from the origin):
+/// rounded mean of the fed residuals (3 per vertex) of v's entries' n and p (entry_mean):
 ///   n = N >> max(w - 12, 0), w the bit length of its largest |component| (so |n[j]| < 2^12);
 ///   t = floor(weight (m . n) 2^12 / (n . n));  base[j] += floor((t n[j] + 2^15) / 2^16).
 /// |m| <= 2^20 and |n[j]| < 2^12, so |weight (m . n) 2^12| < 2^51 and |t n[j]| < 2^43.
 OSTEON_NOINLINE void curvature_step(uint32_t v, const NewestTriangles& nt, const int32_t* fed,
                                     const Normal& normal, int32_t weight, int64_t base[3]) {
-  const int64_t origin[3] = {0, 0, 0};
   int64_t mean[3];
-  entry_step(v, nt, fed, origin, -16, mean);
+  entry_mean(v, nt, fed, mean);
   const int width = static_cast<int>(std::bit_width(
       magnitude(normal.xyz[0]) | magnitude(normal.xyz[1]) | magnitude(normal.xyz[2])));
   int64_t n[3];
@@ -1007,15 +1012,11 @@ int32_t choose_extrapolation(const NewestTriangles& nt, const QuantizedPositions
     if (nt.first[v] != nt.first[v + 1] || u == kNoVertexId || nt.first[u] == nt.first[u + 1]) {
       continue;
     }
-    // The mean entry_step steps away from, once; then each weight's step as entry_step takes it.
-    const int64_t origin[3] = {0, 0, 0};
-    int64_t mean[3];
-    entry_step(u, nt, xyz, origin, -16, mean);
+    int64_t mean[3];  // once, for every weight
+    entry_mean(u, nt, xyz, mean);
     for (int32_t i = 0; i < kWeights; ++i) {
       for (int k = 0; k < 3; ++k) {
-        const int64_t at = xyz[3 * size_t{u} + k];
-        const int64_t pred =
-            std::clamp<int64_t>(at + ((2 * i * (at - mean[k]) + 8) >> 4), INT32_MIN, INT32_MAX);
+        const int64_t pred = stepped_out(xyz[3 * size_t{u} + k], mean[k], 2 * i);
         cost[i] += std::bit_width(zigzag(int64_t{xyz[3 * size_t{v} + k]} - pred));
       }
     }
