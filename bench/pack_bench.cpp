@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -266,10 +267,10 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
                   std::string* table_out, LevelTargets* met) {
   std::ostringstream table;
   table << "| skeleton | triangles | full resolution only | with levels | levels add | whole "
-           "skeleton drawn after | coarser levels | pack time, full / with levels (levels "
-           "stage) | peak memory, full / with levels | coarsest level: measured / recorded "
-           "error, median (max) |\n"
-           "|---|---:|---:|---:|---:|---:|---:|---|---|---|\n";
+           "chain of quarters adds (coarser levels) | whole skeleton drawn after | coarser "
+           "levels | pack time, full / with levels (levels stage) | peak memory, full / with "
+           "levels | coarsest level: measured / recorded error, median (max) |\n"
+           "|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
   *met = LevelTargets{};
   for (const Dataset& set : sets) {
     osteon::PackOptions options;
@@ -282,8 +283,13 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
     osteon::PackOptions flat = options;
     flat.levels = 1;
     flat.max_triangles = osteon::PackOptions::kPieceTrianglesWithLevels;
-    Run full, lod;
-    if (!pack_median(set, flat, set_runs, &full) || !pack_median(set, options, set_runs, &lod)) {
+    // Every level of the chain kept, as the level share would without a limit: what the share
+    // saves. One run: only its bytes are reported.
+    osteon::PackOptions whole = options;
+    whole.level_share = std::numeric_limits<double>::infinity();
+    Run full, lod, chain;
+    if (!pack_median(set, flat, set_runs, &full) || !pack_median(set, whole, 1, &chain) ||
+        !pack_median(set, options, set_runs, &lod)) {
       return false;
     }
     // What compare measures at the coarsest level, against what the manifest says.
@@ -312,6 +318,8 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
     table << "| " << set.label << " | " << grouped(b.triangles_in) << " | "
           << fixed(double(a.output_bytes) / 1e6, 3) << " MB | "
           << fixed(double(b.output_bytes) / 1e6, 3) << " MB | " << fixed(overhead, 1) << "% | "
+          << fixed(100.0 * (double(chain.report.output_bytes) / double(a.output_bytes) - 1), 1)
+          << "% (" << chain.report.level_streams << ") | "
           << fixed(double(b.first_bytes) / 1e6, 3) << " MB ("
           << fixed(100.0 * double(b.first_bytes) / double(b.output_bytes), 1) << "%) | "
           << b.level_streams << " | " << fixed(a.timings.total_ms / 1000, 1) << " / "
@@ -504,8 +512,11 @@ int main(int argc, char** argv) {
            << osteon_bench::cpu_model() << ", " << std::thread::hardware_concurrency()
            << " hardware threads. Each skeleton packed at the default 0.05 mm twice: `--no-lod` "
               "(full resolution alone) and with levels (the default: components above 1024 "
-              "triangles get a chain of quarters down to 256), both in pieces of at most 80,000 "
-              "triangles, pack's default with levels. Whole skeleton drawn after: the "
+              "triangles get a chain of quarters down to 256, of which pack keeps the coarsest "
+              "and the finer ones that fit `--level-share` 0.15 of the full level's bytes), both "
+              "in pieces of at most 80,000 triangles, pack's default with levels; and once more "
+              "with the whole chain kept (`--level-share` without a limit), for what it would "
+              "add. Whole skeleton drawn after: the "
               "first chunks, which hold every component's coarsest level (a viewer reading them "
               "has every bone). Pack time: median of the runs (one run for the dense skeleton), "
               "each in its own process, with its peak resident memory. Coarsest level: every "

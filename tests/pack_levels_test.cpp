@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 // Levels of detail in a package (docs/FORMAT.md "Levels of detail"): the chain of quarters, the
-// stream layout (every coarsest level in the first chunks), errors that match what is measured,
+// stream layout (every coarsest level in the first chunks), what the level share keeps, errors
+// that match what is measured,
 // exact borders between the pieces of a segmented part at every level, and a corrupt level that
 // fails alone.
 
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -67,6 +69,13 @@ Mesh decode_level(const std::string& dir, const Manifest& m, const ManifestCompo
   return mesh.ok() ? mesh.value() : Mesh{};
 }
 
+/// Options that keep every level of the chain (no level share).
+PackOptions whole_chain() {
+  PackOptions options;
+  options.level_share = std::numeric_limits<double>::infinity();
+  return options;
+}
+
 Result<PackReport> pack_phantom(const std::string& out, PackOptions options, int detail = 3) {
   options.output = out;
   options.threads = 2;
@@ -75,7 +84,7 @@ Result<PackReport> pack_phantom(const std::string& out, PackOptions options, int
 
 TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
   const std::string out = scratch_dir() + "/levels";
-  Result<PackReport> report = pack_phantom(out, PackOptions{});
+  Result<PackReport> report = pack_phantom(out, whole_chain());
   ASSERT_TRUE(report.ok()) << report.status().message();
   const Manifest m = read_manifest(out);
   ASSERT_GT(report->level_streams, 0u);
@@ -114,7 +123,7 @@ TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
   EXPECT_LT(report->first_bytes, report->output_bytes / 2);
 
   // --no-lod: the same package without levels; --levels 2: one coarser level at most.
-  PackOptions no_lod;
+  PackOptions no_lod = whole_chain();
   no_lod.levels = 1;
   const std::string flat_dir = scratch_dir() + "/flat", two_dir = scratch_dir() + "/two";
   Result<PackReport> flat = pack_phantom(flat_dir, no_lod);
@@ -124,12 +133,82 @@ TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
     EXPECT_TRUE(c.levels.empty());
   }
   EXPECT_EQ(flat->triangles_out, report->triangles_out);
-  PackOptions two;
+  PackOptions two = whole_chain();
   two.levels = 2;
   ASSERT_TRUE(pack_phantom(two_dir, two).ok());
   for (const ManifestComponent& c : read_manifest(two_dir).components) {
     EXPECT_LE(c.levels.size(), 1u);
   }
+}
+
+// The level share: every component keeps its coarsest level, then finer ones, coarse to fine,
+// while all it keeps cost at most the share of its full level's bytes; what it keeps is the
+// whole chain's coarse end, stream for stream, and the first level left out would not have fit.
+TEST(PackLevels, LevelShareKeepsTheCoarsestAndWhatFits) {
+  const std::string whole_dir = scratch_dir() + "/share_whole";
+  ASSERT_TRUE(pack_phantom(whole_dir, whole_chain(), 4).ok());
+  const Manifest whole = read_manifest(whole_dir);
+  for (const double share : {0.0, 0.15, 0.5}) {
+    SCOPED_TRACE("share " + std::to_string(share));
+    PackOptions options;
+    options.level_share = share;
+    const std::string dir = scratch_dir() + "/share_" + std::to_string(int(share * 100));
+    ASSERT_TRUE(pack_phantom(dir, options, 4).ok());
+    const Manifest m = read_manifest(dir);
+    ASSERT_EQ(m.components.size(), whole.components.size());
+    size_t shortened = 0;
+    for (size_t i = 0; i < m.components.size(); ++i) {
+      const ManifestComponent& c = m.components[i];
+      const ManifestComponent& w = whole.components[i];
+      ASSERT_EQ(c.id, w.id);
+      EXPECT_EQ(c.bytes, w.bytes) << c.id;
+      EXPECT_EQ(c.levels.empty(), w.levels.empty()) << c.id << ": the coarsest is always kept";
+      ASSERT_LE(c.levels.size(), w.levels.size()) << c.id;
+      uint64_t kept = 0;
+      for (size_t k = 0; k < c.levels.size(); ++k) {
+        EXPECT_EQ(c.levels[k].triangles, w.levels[k].triangles) << c.id << " level " << k;
+        EXPECT_EQ(level_stream(dir, m, c, k), level_stream(whole_dir, whole, w, k))
+            << c.id << " level " << k;
+        kept += c.levels[k].bytes;
+      }
+      if (c.levels.size() > 1) {
+        EXPECT_LE(double(kept), share * double(c.bytes)) << c.id;
+      }
+      if (share == 0.0) {
+        EXPECT_LE(c.levels.size(), 1u) << c.id;
+      }
+      if (c.levels.size() < w.levels.size()) {
+        ++shortened;
+        EXPECT_GT(double(kept + w.levels[c.levels.size()].bytes), share * double(c.bytes))
+            << c.id << ": level " << c.levels.size() << " would have fit";
+      }
+      EXPECT_EQ(decode_level(dir, m, c, c.levels.size()).triangle_count(), c.triangles);
+    }
+    if (share < 0.5) {
+      EXPECT_GT(shortened, 0u) << "the phantom's chains are all within the share";
+    }
+  }
+  // The CLI's --level-share; a negative one is refused, naming the option.
+  const std::string input = write_phantom(4);
+  const std::string cli_dir = scratch_dir() + "/share_cli";
+  test::CliRun packed =
+      test::run_cli("pack " + input + " --no-viewer --level-share 0 -o " + cli_dir);
+  ASSERT_EQ(packed.status, 0) << packed.err;
+  for (const ManifestComponent& c : read_manifest(cli_dir).components) {
+    EXPECT_LE(c.levels.size(), 1u) << c.id;
+  }
+  test::CliRun refused =
+      test::run_cli("pack " + input + " --no-viewer --level-share -1 -o " + cli_dir + "_bad");
+  EXPECT_NE(refused.status, 0);
+  EXPECT_NE(refused.err.find("--level-share"), std::string::npos) << refused.err;
+  Result<PackReport> negative = [&] {
+    PackOptions options;
+    options.level_share = -1;
+    return pack_phantom(scratch_dir() + "/share_negative", options);
+  }();
+  ASSERT_FALSE(negative.ok());
+  EXPECT_NE(negative.status().message().find("level share"), std::string::npos)
+      << negative.status().message();
 }
 
 // What the manifest says of a level is what `osteon compare ORIGINAL PACKAGE --level K` measures.
@@ -179,13 +258,13 @@ void expect_level_errors_measured(PackOptions options, const std::string& out) {
 }
 
 TEST(PackLevels, LevelErrorsMatchWhatIsMeasured) {
-  expect_level_errors_measured(PackOptions(), scratch_dir() + "/measured");
+  expect_level_errors_measured(whole_chain(), scratch_dir() + "/measured");
 }
 
 // The same for segmented parts, whose coarser levels keep the part's grid on their border and
 // move the rest of their vertices onto a coarser lattice.
 TEST(PackLevels, SegmentedLevelErrorsMatchWhatIsMeasured) {
-  PackOptions options;
+  PackOptions options = whole_chain();
   options.max_triangles = 1500;  // the phantom's 4k-triangle bones in three or four pieces
   expect_level_errors_measured(options, scratch_dir() + "/measured_segmented");
 }
@@ -211,7 +290,7 @@ TEST(PackLevels, IslandsSurviveEveryLevel) {
   const std::string dir = scratch_dir() + "/islands";
   std::filesystem::create_directories(dir + "/in");
   ASSERT_TRUE(write_mesh(dir + "/in/islands.ply", bone).ok());
-  PackOptions options;
+  PackOptions options = whole_chain();
   options.output = dir + "/out";
   ASSERT_TRUE(pack({dir + "/in"}, options).ok());
   const Manifest m = read_manifest(options.output);

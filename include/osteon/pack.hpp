@@ -61,6 +61,13 @@ struct PackOptions {
   /// At most this many levels per component, the full one included; 0: as many as the chain
   /// gives (down to a few hundred triangles); 1: no levels (--no-lod).
   int levels = 0;
+  /// What a component's coarser levels may cost, as a share of its full level's bytes. Its
+  /// coarsest level is always kept (it draws the whole skeleton first); the finer ones are kept,
+  /// coarse to fine, while all kept so far cost at most this share, and the first that does not
+  /// fit ends the chain. A coarser level is coded from scratch and costs more a triangle than a
+  /// dense full level (up to twice), so every quarter of the chain would add 25 to 70%
+  /// (docs/DESIGN.md, "What the levels cost"). A large value keeps the whole chain.
+  double level_share = 0.15;
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
   /// docs/FORMAT.md); empty: display names are the part names.
   std::string names;

@@ -172,6 +172,9 @@ Status check_options(const std::vector<std::string>& inputs, const PackOptions& 
   if (options.levels < 0) {
     return error(ErrorCode::kInvalidArgument, "pack", "levels must be >= 0 (0: no limit)");
   }
+  if (!(options.level_share >= 0) || std::isnan(options.level_share)) {
+    return error(ErrorCode::kInvalidArgument, "pack", "the level share must be >= 0");
+  }
   if (options.chunk_bytes == 0) {
     return error(ErrorCode::kInvalidArgument, "pack", "chunk bytes must be at least 1");
   }
@@ -430,51 +433,66 @@ Result<EncodedParts> encode_stage(
       const auto [p, k] = jobs[j];
       const std::vector<detail::DetailLevel>& levels = levels_of[p][k];
       Encoded& c = out.components[j];
-      for (size_t level = 0; level <= levels.size(); ++level) {
+      // Level `level` (levels.size(): the full one) encoded; its grid step in `*step`.
+      auto encode_level = [&](size_t level, EncodeReport* encoded, double* step) {
         const Mesh* mesh = level < levels.size() ? &levels[level].mesh : &pieces_of[p][k];
         EncodeOptions encode_options;
         encode_options.grid = grid_of[p];
         // A coarser level's vertices within half a coarser step (src/package/level_grid.cpp): a
         // whole part on a coarser grid; a segmented part's piece on the part's grid, with the
         // vertices off its border on a lattice of that step.
-        double step = grid_of[p].step;
+        *step = grid_of[p].step;
         Mesh snapped;
         if (level < levels.size()) {
-          step = detail::level_step(grid_of[p].step, levels[level].distance);
+          *step = detail::level_step(grid_of[p].step, levels[level].distance);
           if (pieces_of[p].size() == 1) {
-            encode_options.grid.step = step;
+            encode_options.grid.step = *step;
             encode_options.grid.lattice = 0;  // a coarser grid is off the voxel lattice
-          } else if (step > grid_of[p].step) {
-            const auto period = static_cast<uint32_t>(std::lround(step / grid_of[p].step));
+          } else if (*step > grid_of[p].step) {
+            const auto period = static_cast<uint32_t>(std::lround(*step / grid_of[p].step));
             snapped = detail::snap_inside_border(*mesh, grid_of[p], period);
             mesh = &snapped;
             encode_options.grid.lattice = period;
           }
         }
-        EncodeReport encoded;
-        Result<std::vector<uint8_t>> bytes = encode(*mesh, encode_options, &encoded);
+        return encode(*mesh, encode_options, encoded);
+      };
+      // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
+      const double half_steps = std::sqrt(3.0) / 2;
+      // The full level first: its bytes bound what the coarser ones may cost (level_share).
+      EncodeReport encoded;
+      double step = 0;
+      Result<std::vector<uint8_t>> full = encode_level(levels.size(), &encoded, &step);
+      if (!full.ok()) {
+        status[j] = full.status();
+        return;
+      }
+      c.entry.bytes = full.value().size();
+      c.entry.triangles = encoded.triangles;
+      c.entry.vertices = encoded.vertices;
+      c.entry.bounds = bounding_box(pieces_of[p][k]);
+      c.entry.error_bound = half_steps * step;
+      const double share = options.level_share * double(c.entry.bytes);
+      uint64_t spent = 0;
+      for (size_t level = 0; level < levels.size(); ++level) {
+        Result<std::vector<uint8_t>> bytes = encode_level(level, &encoded, &step);
         if (!bytes.ok()) {
           status[j] = bytes.status();
           return;
         }
-        // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
-        const double bound = std::sqrt(3.0) / 2 * step;
-        if (level < levels.size()) {
-          ManifestLevel entry;
-          entry.bytes = bytes.value().size();
-          entry.triangles = encoded.triangles;
-          entry.vertices = encoded.vertices;
-          entry.error = levels[level].distance + bound;
-          c.entry.levels.push_back(entry);
-        } else {
-          c.entry.bytes = bytes.value().size();
-          c.entry.triangles = encoded.triangles;
-          c.entry.vertices = encoded.vertices;
-          c.entry.bounds = bounding_box(*mesh);
-          c.entry.error_bound = bound;
-        }
+        // The coarsest always; a finer one while the kept levels stay within the share (each
+        // finer level costs more than the one before, so the first that does not fit ends it).
+        spent += bytes.value().size();
+        if (level > 0 && double(spent) > share) break;
+        ManifestLevel entry;
+        entry.bytes = bytes.value().size();
+        entry.triangles = encoded.triangles;
+        entry.vertices = encoded.vertices;
+        entry.error = levels[level].distance + half_steps * step;
+        c.entry.levels.push_back(entry);
         c.streams.push_back({sha256_hex(bytes.value()), std::move(bytes.value())});
       }
+      c.streams.push_back({sha256_hex(full.value()), std::move(full.value())});
       // Formatted, not concatenated: g++ 12 warns (-Wrestrict, a false positive) on string
       // appends here.
       char id[32];

@@ -139,8 +139,15 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
                       "at most N levels of detail per component, full one included (default: as "
                       "many as a chain of quarters gives)")
           ->check(CLI::Range(1, 32));
+  CLI::Option* share =
+      cmd->add_option("--level-share", args->options.level_share,
+                      "what a component's coarser levels may cost, as a share of its full "
+                      "level's bytes: the coarsest always, finer ones while they fit (default "
+                      "0.15)")
+          ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-lod", args->no_lod, "no levels of detail: full resolution only")
-      ->excludes(levels);
+      ->excludes(levels)
+      ->excludes(share);
   cmd->add_option("--chunk-bytes", args->options.chunk_bytes,
                   "largest chunk file: streams are concatenated in stream order (default 524288)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));

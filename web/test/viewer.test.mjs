@@ -96,10 +96,13 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
 
   /// The dense phantom (detail 4: 16,000 triangles a bone, up to four levels each), packed with
   /// levels of detail in 20 KB chunks, served at lod/; made once, for the tests that need it.
+  /// Every level of the chain is kept (`--level-share 100`): the phantom's smooth bones cost so
+  /// little at full resolution that the default share keeps only their coarsest, and these tests
+  /// refine through the levels between.
   function lodPackage() {
     if (!lodManifest) {
       osteon('phantom', '--detail', '4', '-o', path.join(work, 'phantom-dense'));
-      lodManifest = pack([path.join(work, 'phantom-dense')], path.join(site, 'lod'), ['--chunk-bytes', '20000']);
+      lodManifest = pack([path.join(work, 'phantom-dense')], path.join(site, 'lod'), ['--chunk-bytes', '20000', '--level-share', '100']);
     }
     return lodManifest;
   }
