@@ -167,9 +167,11 @@ describe('OsteonLoader from the npm tarball in Chromium', { skip: skip ?? false 
       '<script type="module" src="page.mjs"></script></body>');
 
     // The phantom, with levels of detail, in chunks of at most 6 KB: several chunks, so
-    // components arrive while others are on the wire.
+    // components arrive while others are on the wire. Every level of the chain is kept
+    // (`--level-share 100`; the default keeps only the phantom's coarsest): chunks that hold
+    // levels the finest load skips, which it then asks for by Range.
     osteon('phantom', '-o', path.join(work, 'phantom-src'));
-    phantom = packInto(site, 'phantom', [path.join(work, 'phantom-src')], ['--chunk-bytes', '6000']);
+    phantom = packInto(site, 'phantom', [path.join(work, 'phantom-src')], ['--chunk-bytes', '6000', '--level-share', '100']);
     server = await serve(site);
     browser = await launchBrowser();
     page = await browser.newPage({ viewport: { width: 600, height: 700 } });
