@@ -266,11 +266,12 @@ struct LevelTargets {
 bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& scratch,
                   std::string* table_out, LevelTargets* met) {
   std::ostringstream table;
-  table << "| skeleton | triangles | full resolution only | with levels | levels add | whole "
-           "chain of quarters adds (coarser levels) | whole skeleton drawn after | coarser "
-           "levels | pack time, full / with levels (levels stage) | peak memory, full / with "
-           "levels | coarsest level: measured / recorded error, median (max) |\n"
-           "|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
+  table << "| skeleton | triangles | full resolution only | with levels | levels add | the "
+           "share alone adds (coarser levels) | the whole chain adds (coarser levels) | whole "
+           "skeleton drawn after | coarser levels | pack time, full / with levels (simplifying "
+           "the levels) | peak memory, full / with levels | coarsest level: measured / recorded "
+           "error, median (max) |\n"
+           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
   *met = LevelTargets{};
   for (const Dataset& set : sets) {
     osteon::PackOptions options;
@@ -283,13 +284,15 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
     osteon::PackOptions flat = options;
     flat.levels = 1;
     flat.max_triangles = osteon::PackOptions::kPieceTrianglesWithLevels;
-    // Every level of the chain kept, as the level share would without a limit: what the share
-    // saves. One run: only its bytes are reported.
+    // Every level of the chain kept (no share), and the levels the share keeps alone (no view):
+    // what each rule of pack's choice keeps. One run each: only their bytes are reported.
     osteon::PackOptions whole = options;
     whole.level_share = std::numeric_limits<double>::infinity();
-    Run full, lod, chain;
+    osteon::PackOptions share = options;
+    share.lod_view_pixels = 0;
+    Run full, lod, chain, shared;
     if (!pack_median(set, flat, set_runs, &full) || !pack_median(set, whole, 1, &chain) ||
-        !pack_median(set, options, set_runs, &lod)) {
+        !pack_median(set, share, 1, &shared) || !pack_median(set, options, set_runs, &lod)) {
       return false;
     }
     // What compare measures at the coarsest level, against what the manifest says.
@@ -318,6 +321,8 @@ bool levels_table(const std::vector<Dataset>& sets, int runs, const fs::path& sc
     table << "| " << set.label << " | " << grouped(b.triangles_in) << " | "
           << fixed(double(a.output_bytes) / 1e6, 3) << " MB | "
           << fixed(double(b.output_bytes) / 1e6, 3) << " MB | " << fixed(overhead, 1) << "% | "
+          << fixed(100.0 * (double(shared.report.output_bytes) / double(a.output_bytes) - 1), 1)
+          << "% (" << shared.report.level_streams << ") | "
           << fixed(100.0 * (double(chain.report.output_bytes) / double(a.output_bytes) - 1), 1)
           << "% (" << chain.report.level_streams << ") | "
           << fixed(double(b.first_bytes) / 1e6, 3) << " MB ("
@@ -512,11 +517,12 @@ int main(int argc, char** argv) {
            << osteon_bench::cpu_model() << ", " << std::thread::hardware_concurrency()
            << " hardware threads. Each skeleton packed at the default 0.05 mm twice: `--no-lod` "
               "(full resolution alone) and with levels (the default: components above 1024 "
-              "triangles get a chain of quarters down to 256, of which pack keeps the coarsest "
-              "and the finer ones that fit `--level-share` 0.15 of the full level's bytes), both "
-              "in pieces of at most 80,000 triangles, pack's default with levels; and once more "
-              "with the whole chain kept (`--level-share` without a limit), for what it would "
-              "add. Whole skeleton drawn after: the "
+              "triangles get a chain of quarters down to 256, of which pack keeps the coarsest, "
+              "those the view of the whole skeleton needs at `--lod-view-pixels` 1024 and those "
+              "within `--level-share` 0.15 of the full level's bytes), both in pieces of at most "
+              "80,000 triangles, pack's default with levels; and once each with the share alone "
+              "(`--lod-view-pixels 0`) and with the whole chain (`--level-share` without a "
+              "limit), for what they add. Whole skeleton drawn after: the "
               "first chunks, which hold every component's coarsest level (a viewer reading them "
               "has every bone). Pack time: median of the runs (one run for the dense skeleton), "
               "each in its own process, with its peak resident memory. Coarsest level: every "

@@ -141,9 +141,10 @@ TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
   }
 }
 
-// The level share: every component keeps its coarsest level, then finer ones, coarse to fine,
-// while all it keeps cost at most the share of its full level's bytes; what it keeps is the
-// whole chain's coarse end, stream for stream, and the first level left out would not have fit.
+// Which levels a component keeps: its coarsest, then finer ones, coarse to fine, while all it
+// keeps cost at most the share of its full level's bytes, or while the finest kept is more than
+// a pixel off in the whole view; what it keeps is the whole chain's coarse end, stream for
+// stream, and the first level left out was needed by neither.
 TEST(PackLevels, LevelShareKeepsTheCoarsestAndWhatFits) {
   const std::string whole_dir = scratch_dir() + "/share_whole";
   ASSERT_TRUE(pack_phantom(whole_dir, whole_chain(), 4).ok());
@@ -152,6 +153,7 @@ TEST(PackLevels, LevelShareKeepsTheCoarsestAndWhatFits) {
     SCOPED_TRACE("share " + std::to_string(share));
     PackOptions options;
     options.level_share = share;
+    options.lod_view_pixels = 0;  // the share alone
     const std::string dir = scratch_dir() + "/share_" + std::to_string(int(share * 100));
     ASSERT_TRUE(pack_phantom(dir, options, 4).ok());
     const Manifest m = read_manifest(dir);
@@ -188,11 +190,45 @@ TEST(PackLevels, LevelShareKeepsTheCoarsestAndWhatFits) {
       EXPECT_GT(shortened, 0u) << "the phantom's chains are all within the share";
     }
   }
+  // The whole view: with no share, levels are kept down to the first within one pixel of a view
+  // `pixels` high that shows the whole phantom, and no further.
+  const Aabb& box = whole.bounds;  // of every part (rounded outward: a hair larger than pack's)
+  const double extent = std::max({double(box.max.x) - box.min.x, double(box.max.y) - box.min.y,
+                                  double(box.max.z) - box.min.z});
+  for (const double pixels : {256.0, 4096.0}) {
+    SCOPED_TRACE("view " + std::to_string(pixels));
+    PackOptions options;
+    options.level_share = 0;
+    options.lod_view_pixels = pixels;
+    const std::string dir = scratch_dir() + "/view_" + std::to_string(int(pixels));
+    ASSERT_TRUE(pack_phantom(dir, options, 4).ok());
+    const Manifest m = read_manifest(dir);
+    ASSERT_EQ(m.components.size(), whole.components.size());
+    size_t deeper = 0;
+    for (size_t i = 0; i < m.components.size(); ++i) {
+      const ManifestComponent& c = m.components[i];
+      const ManifestComponent& w = whole.components[i];
+      ASSERT_EQ(c.levels.empty(), w.levels.empty()) << c.id;
+      if (c.levels.empty()) continue;
+      deeper += c.levels.size() > 1;
+      for (size_t k = 0; k + 1 < c.levels.size(); ++k) {
+        EXPECT_GT(c.levels[k].error, extent / pixels * (1 - 1e-4)) << c.id << " level " << k;
+      }
+      if (c.levels.size() < w.levels.size()) {
+        EXPECT_LE(c.levels.back().error, extent / pixels * (1 + 1e-4))
+            << c.id << ": the view needs more";
+      }
+    }
+    if (pixels > 1000) {
+      EXPECT_GT(deeper, 0u) << "a close view keeps finer levels";
+    }
+  }
   // The CLI's --level-share; a negative one is refused, naming the option.
   const std::string input = write_phantom(4);
   const std::string cli_dir = scratch_dir() + "/share_cli";
-  test::CliRun packed =
-      test::run_cli("pack " + input + " --no-viewer --level-share 0 -o " + cli_dir);
+  test::CliRun packed = test::run_cli("pack " + input +
+                                      " --no-viewer --level-share 0 --lod-view-pixels 0 -o " +
+                                      cli_dir);
   ASSERT_EQ(packed.status, 0) << packed.err;
   for (const ManifestComponent& c : read_manifest(cli_dir).components) {
     EXPECT_LE(c.levels.size(), 1u) << c.id;

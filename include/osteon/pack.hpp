@@ -61,13 +61,17 @@ struct PackOptions {
   /// At most this many levels per component, the full one included; 0: as many as the chain
   /// gives (down to a few hundred triangles); 1: no levels (--no-lod).
   int levels = 0;
-  /// What a component's coarser levels may cost, as a share of its full level's bytes. Its
-  /// coarsest level is always kept (it draws the whole skeleton first); the finer ones are kept,
-  /// coarse to fine, while all kept so far cost at most this share, and the first that does not
-  /// fit ends the chain. A coarser level is coded from scratch and costs more a triangle than a
-  /// dense full level (up to twice), so every quarter of the chain would add 25 to 70%
-  /// (docs/DESIGN.md, "What the levels cost"). A large value keeps the whole chain.
+  /// Which levels of the chain a component keeps (docs/DESIGN.md, "What the levels cost"): its
+  /// coarsest always (it draws the whole skeleton first), then, coarse to fine, each level that
+  /// the view of the whole package needs (the finer kept so far is more than a pixel off in a
+  /// view lod_view_pixels high showing the package's bounds' largest side) or that keeps all its
+  /// kept levels within level_share of its full level's bytes; the first level that is neither
+  /// ends the chain. A coarser level is coded from scratch and costs more a triangle than a dense
+  /// full level (up to twice), so the whole chain adds 25 to 70%; the finest ones serve only
+  /// close views, which show few components and may fetch their full levels instead. A large
+  /// share keeps the whole chain; lod_view_pixels 0 keeps within the share alone.
   double level_share = 0.15;
+  double lod_view_pixels = 1024;
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
   /// docs/FORMAT.md); empty: display names are the part names.
   std::string names;
@@ -102,8 +106,8 @@ struct PackTimings {
   double clean_ms = 0;
   double repeats_ms = 0;
   double segment_ms = 0;
-  double levels_ms = 0;
-  double encode_ms = 0;
+  double levels_ms = 0;  ///< simplifying the chains of levels
+  double encode_ms = 0;  ///< encoding, with the distances of the levels kept
   double write_ms = 0;
   double total_ms = 0;
 };

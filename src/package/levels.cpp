@@ -125,8 +125,8 @@ std::vector<uint32_t> simplify_step(const Mesh& finer, uint64_t target, float er
 
 }  // namespace
 
-Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels) {
-  std::vector<DetailLevel> levels;  // finest first while building
+std::vector<Mesh> detail_levels(const Mesh& full, int max_levels) {
+  std::vector<Mesh> levels;  // finest first while building
   // Each level is simplified from the one before it, held in `levels`: no reallocation may move
   // it (a chain of quarters from 2^32 triangles has 16 levels).
   levels.reserve(32);
@@ -142,39 +142,36 @@ Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels)
     const std::vector<uint32_t> kept = simplify_step(*finer, target, error);
     const uint64_t count = kept.size() / 3;
     if (count == 0 || 4 * count > 3 * triangles) break;  // the border or the error holds it up
-    DetailLevel level;
-    level.mesh = submesh(*finer, kept);
-    levels.push_back(std::move(level));
-    finer = &levels.back().mesh;
+    levels.push_back(submesh(*finer, kept));
+    finer = &levels.back();
   }
-  if (levels.empty()) return levels;
+  std::reverse(levels.begin(), levels.end());
+  return levels;
+}
+
+Result<double> level_distance(const Mesh& full, const DistanceQuery& to_full, const Mesh& level) {
   // Both ways: from the level's vertices, edges and faces (3 samples a triangle) to the full
-  // surface, whose hierarchy is built once for every level; and from every vertex of the full
-  // level to the level's surface, where a simplification's error peaks (the vertices it removed,
-  // and whole islands: meshopt may collapse a small closed component of a bone to nothing, and
-  // a subset of the full vertices can miss it, which once recorded 3 mm for a level 120 mm off).
-  // Only the largest distance is wanted, so a sample stops at the first triangle that cannot raise
-  // it (HausdorffOptions::max_only): every full vertex costs little more than its hint.
-  OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_full, DistanceQuery::build(full));
+  // surface; and from every vertex of the full level to the level's surface, where a
+  // simplification's error peaks (the vertices it removed, and whole islands: meshopt may collapse
+  // a small closed component of a bone to nothing, and a subset of the full vertices can miss it,
+  // which once recorded 3 mm for a level 120 mm off). Only the largest distance is wanted, so a
+  // sample stops at the first triangle that cannot raise it (HausdorffOptions::max_only): every
+  // full vertex costs little more than its hint.
   HausdorffOptions level_samples;
   level_samples.samples_per_face = 3;
   level_samples.max_only = true;  // the level's error is the largest distance alone
+  OSTEON_ASSIGN_OR_RETURN(OneSidedDistance forward,
+                          one_sided_distance(level, to_full, level_samples));
+  OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_level, DistanceQuery::build(level));
   HausdorffOptions full_vertices;
   full_vertices.max_only = true;
   full_vertices.samples = full.positions.size();  // every vertex
   full_vertices.sample_edges = false;
   full_vertices.sample_faces = false;
-  for (DetailLevel& level : levels) {
-    OSTEON_ASSIGN_OR_RETURN(OneSidedDistance forward,
-                            one_sided_distance(level.mesh, to_full, level_samples));
-    OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_level, DistanceQuery::build(level.mesh));
-    full_vertices.known_max = forward.max;  // only the larger of the two is kept
-    OSTEON_ASSIGN_OR_RETURN(OneSidedDistance backward,
-                            one_sided_distance(full, to_level, full_vertices));
-    level.distance = std::max(forward.max, backward.max);
-  }
-  std::reverse(levels.begin(), levels.end());
-  return levels;
+  full_vertices.known_max = forward.max;  // only the larger of the two is kept
+  OSTEON_ASSIGN_OR_RETURN(OneSidedDistance backward,
+                          one_sided_distance(full, to_level, full_vertices));
+  return std::max(forward.max, backward.max);
 }
 
 }  // namespace osteon::detail

@@ -12,13 +12,16 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "osteon/codec.hpp"
+#include "osteon/hausdorff.hpp"
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
 #include "osteon/package.hpp"
@@ -172,8 +175,12 @@ Status check_options(const std::vector<std::string>& inputs, const PackOptions& 
   if (options.levels < 0) {
     return error(ErrorCode::kInvalidArgument, "pack", "levels must be >= 0 (0: no limit)");
   }
-  if (!(options.level_share >= 0) || std::isnan(options.level_share)) {
+  if (!(options.level_share >= 0)) {
     return error(ErrorCode::kInvalidArgument, "pack", "the level share must be >= 0");
+  }
+  if (!(options.lod_view_pixels >= 0) || !std::isfinite(options.lod_view_pixels)) {
+    return error(ErrorCode::kInvalidArgument, "pack",
+                 "the view's pixels for levels must be finite and >= 0");
   }
   if (options.chunk_bytes == 0) {
     return error(ErrorCode::kInvalidArgument, "pack", "chunk bytes must be at least 1");
@@ -345,10 +352,11 @@ Result<std::vector<std::vector<Mesh>>> segment_stage(const std::vector<Mesh>& pa
 
 /// Levels: the coarser levels of every piece larger than options.lod_min_triangles (in parallel
 /// over pieces, each result in its own slot). Returns them per part, per piece, coarsest first.
-Result<std::vector<std::vector<std::vector<detail::DetailLevel>>>> levels_stage(
+/// Their distances are measured when they are encoded, only for the levels the share keeps.
+Result<std::vector<std::vector<std::vector<Mesh>>>> levels_stage(
     const std::vector<size_t>& prototypes, const std::vector<std::vector<Mesh>>& pieces_of,
     const PackOptions& options, const Progress& progress, tbb::task_arena& arena) {
-  std::vector<std::vector<std::vector<detail::DetailLevel>>> levels_of(pieces_of.size());
+  std::vector<std::vector<std::vector<Mesh>>> levels_of(pieces_of.size());
   std::vector<std::pair<size_t, size_t>> jobs;  // (part, piece)
   for (size_t p : prototypes) {
     levels_of[p].resize(pieces_of[p].size());
@@ -369,13 +377,7 @@ Result<std::vector<std::vector<std::vector<detail::DetailLevel>>>> levels_stage(
   arena.execute([&] {
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
       const auto [p, k] = jobs[j];
-      Result<std::vector<detail::DetailLevel>> levels =
-          detail::detail_levels(pieces_of[p][k], options.levels);
-      if (!levels.ok()) {
-        status[j] = levels.status();
-        return;
-      }
-      levels_of[p][k] = std::move(levels.value());
+      levels_of[p][k] = detail::detail_levels(pieces_of[p][k], options.levels);
     });
   });
   for (const Status& s : status) OSTEON_RETURN_IF_ERROR(s);
@@ -405,7 +407,7 @@ struct EncodedParts {
 Result<EncodedParts> encode_stage(
     const std::vector<Mesh>& parts, const std::vector<size_t>& prototypes,
     const std::vector<std::vector<Mesh>>& pieces_of,
-    const std::vector<std::vector<std::vector<detail::DetailLevel>>>& levels_of,
+    const std::vector<std::vector<std::vector<Mesh>>>& levels_of,
     const PackOptions& options, const Progress& progress, tbb::task_arena& arena) {
   EncodedParts out;
   out.components_of.resize(parts.size());
@@ -426,16 +428,31 @@ Result<EncodedParts> encode_stage(
     if (!grid.ok()) return error(grid.status().code(), parts[p].source, grid.status().message());
     grid_of[p] = grid.value();
   }
+  // One pixel of a view lod_view_pixels high that shows the whole package (options.level_share).
+  double extent = 0;
+  {
+    Aabb all;
+    for (const Mesh& part : parts) expand(all, bounding_box(part));
+    if (!all.empty) {
+      extent = std::max({double(all.max.x) - all.min.x, double(all.max.y) - all.min.y,
+                         double(all.max.z) - all.min.z});
+    }
+  }
+  const double view_pixel = options.lod_view_pixels > 0 ? extent / options.lod_view_pixels
+                                                        : std::numeric_limits<double>::infinity();
   std::vector<Status> status(jobs.size());
   progress(PackStage::kEncode, 0, jobs.size());
   arena.execute([&] {
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
       const auto [p, k] = jobs[j];
-      const std::vector<detail::DetailLevel>& levels = levels_of[p][k];
+      const std::vector<Mesh>& levels = levels_of[p][k];
+      const Mesh& piece = pieces_of[p][k];
       Encoded& c = out.components[j];
-      // Level `level` (levels.size(): the full one) encoded; its grid step in `*step`.
-      auto encode_level = [&](size_t level, EncodeReport* encoded, double* step) {
-        const Mesh* mesh = level < levels.size() ? &levels[level].mesh : &pieces_of[p][k];
+      // Level `level` (levels.size(): the full one), `distance` from the full one, encoded; its
+      // grid step in `*step`.
+      auto encode_level = [&](size_t level, double distance, EncodeReport* encoded,
+                              double* step) {
+        const Mesh* mesh = level < levels.size() ? &levels[level] : &piece;
         EncodeOptions encode_options;
         encode_options.grid = grid_of[p];
         // A coarser level's vertices within half a coarser step (src/package/level_grid.cpp): a
@@ -444,7 +461,7 @@ Result<EncodedParts> encode_stage(
         *step = grid_of[p].step;
         Mesh snapped;
         if (level < levels.size()) {
-          *step = detail::level_step(grid_of[p].step, levels[level].distance);
+          *step = detail::level_step(grid_of[p].step, distance);
           if (pieces_of[p].size() == 1) {
             encode_options.grid.step = *step;
             encode_options.grid.lattice = 0;  // a coarser grid is off the voxel lattice
@@ -462,7 +479,7 @@ Result<EncodedParts> encode_stage(
       // The full level first: its bytes bound what the coarser ones may cost (level_share).
       EncodeReport encoded;
       double step = 0;
-      Result<std::vector<uint8_t>> full = encode_level(levels.size(), &encoded, &step);
+      Result<std::vector<uint8_t>> full = encode_level(levels.size(), 0, &encoded, &step);
       if (!full.ok()) {
         status[j] = full.status();
         return;
@@ -470,25 +487,42 @@ Result<EncodedParts> encode_stage(
       c.entry.bytes = full.value().size();
       c.entry.triangles = encoded.triangles;
       c.entry.vertices = encoded.vertices;
-      c.entry.bounds = bounding_box(pieces_of[p][k]);
+      c.entry.bounds = bounding_box(piece);
       c.entry.error_bound = half_steps * step;
       const double share = options.level_share * double(c.entry.bytes);
       uint64_t spent = 0;
+      std::optional<DistanceQuery> to_full;  // the full level's hierarchy, for every distance
       for (size_t level = 0; level < levels.size(); ++level) {
-        Result<std::vector<uint8_t>> bytes = encode_level(level, &encoded, &step);
+        if (!to_full.has_value()) {
+          Result<DistanceQuery> query = DistanceQuery::build(piece);
+          if (!query.ok()) {
+            status[j] = query.status();
+            return;
+          }
+          to_full.emplace(std::move(query.value()));
+        }
+        Result<double> distance = detail::level_distance(piece, *to_full, levels[level]);
+        if (!distance.ok()) {
+          status[j] = distance.status();
+          return;
+        }
+        Result<std::vector<uint8_t>> bytes = encode_level(level, *distance, &encoded, &step);
         if (!bytes.ok()) {
           status[j] = bytes.status();
           return;
         }
-        // The coarsest always; a finer one while the kept levels stay within the share (each
-        // finer level costs more than the one before, so the first that does not fit ends it).
+        // The coarsest always; a finer one where the whole view needs it or the kept levels stay
+        // within the share (each finer level costs more than the one before, so the first that
+        // is neither ends it).
         spent += bytes.value().size();
-        if (level > 0 && double(spent) > share) break;
+        if (level > 0 && double(spent) > share && c.entry.levels.back().error <= view_pixel) {
+          break;
+        }
         ManifestLevel entry;
         entry.bytes = bytes.value().size();
         entry.triangles = encoded.triangles;
         entry.vertices = encoded.vertices;
-        entry.error = levels[level].distance + half_steps * step;
+        entry.error = *distance + half_steps * step;
         c.entry.levels.push_back(entry);
         c.streams.push_back({sha256_hex(bytes.value()), std::move(bytes.value())});
       }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "osteon/codec.hpp"
+#include "osteon/hausdorff.hpp"
 #include "osteon/mesh.hpp"
 
 #include "osteon/status.hpp"
@@ -152,25 +153,22 @@ Status derive_regions(const std::string& source, const std::vector<Mesh>& parts,
 /// in first-use order; name, source and unit kept. O(vertices + indices).
 Mesh submesh(const Mesh& mesh, const std::vector<uint32_t>& indices);
 
-/// A coarser level of detail of a component: its triangles and its measured distance from the
-/// full level (symmetric sampled Hausdorff, in the mesh's unit, before quantization).
-struct DetailLevel {
-  Mesh mesh;
-  double distance = 0;
-};
-
 /// The chain of coarser levels of `full` (docs/FORMAT.md "Levels of detail"), coarsest first:
 /// each simplified from the next finer one to a quarter of its triangles with the border locked
 /// (so every level keeps `full`'s border vertices, exactly), while that leaves at least
 /// kMinLevelTriangles and the simplifier gets below 3/4 of the finer level; at most
-/// `max_levels` - 1 of them (0: no limit). Each level's distance from `full` is measured: the
-/// larger of the sampled distances from the level (3 samples a triangle) to `full` and from
-/// every vertex of `full` to the level. Each island of `full` (triangles sharing vertices) is
+/// `max_levels` - 1 of them (0: no limit). Each island of `full` (triangles sharing vertices) is
 /// simplified on its own, islands under 64 triangles kept whole; meshopt's error is held under
 /// 5% of the piece's extent, which ends the chain where a quarter would cost more.
-/// Errors: those of hausdorff() (a non-finite coordinate). Deterministic.
+/// Deterministic. Distances are measured apart (level_distance), for the levels a package keeps.
 inline constexpr uint64_t kMinLevelTriangles = 256;
-Result<std::vector<DetailLevel>> detail_levels(const Mesh& full, int max_levels);
+std::vector<Mesh> detail_levels(const Mesh& full, int max_levels);
+
+/// A level's distance from `full` (symmetric sampled Hausdorff, in the mesh's unit, before
+/// quantization): the larger of the sampled distances from the level (3 samples a triangle) to
+/// `full`, through `to_full` (built on `full`), and from every vertex of `full` to the level.
+/// Errors: those of hausdorff() (a non-finite coordinate).
+Result<double> level_distance(const Mesh& full, const DistanceQuery& to_full, const Mesh& level);
 
 // How a coarser level is stored (src/package/level_grid.cpp).
 

@@ -141,13 +141,18 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
           ->check(CLI::Range(1, 32));
   CLI::Option* share =
       cmd->add_option("--level-share", args->options.level_share,
-                      "what a component's coarser levels may cost, as a share of its full "
-                      "level's bytes: the coarsest always, finer ones while they fit (default "
-                      "0.15)")
+                      "what a component's coarser levels may cost beyond those the whole view "
+                      "needs, as a share of its full level's bytes (default 0.15)")
+          ->check(CLI::NonNegativeNumber);
+  CLI::Option* view =
+      cmd->add_option("--lod-view-pixels", args->options.lod_view_pixels,
+                      "levels are kept down to one pixel's error in a view this many pixels high "
+                      "showing the whole package (default 1024; 0: the share alone)")
           ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-lod", args->no_lod, "no levels of detail: full resolution only")
       ->excludes(levels)
-      ->excludes(share);
+      ->excludes(share)
+      ->excludes(view);
   cmd->add_option("--chunk-bytes", args->options.chunk_bytes,
                   "largest chunk file: streams are concatenated in stream order (default 524288)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));
