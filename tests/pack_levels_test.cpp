@@ -145,18 +145,24 @@ TEST(PackLevels, ChainOfQuartersCoarsestFirstInTheStream) {
 // keeps cost at most the share of its full level's bytes, or while the finest kept is more than
 // a pixel off in the whole view; what it keeps is the whole chain's coarse end, stream for
 // stream, and the first level left out was needed by neither.
+/// The dense phantom packed into `dir` with the level share and the whole view's pixels given.
+Manifest pack_kept(const std::string& dir, double share, double pixels) {
+  PackOptions options;
+  options.level_share = share;
+  options.lod_view_pixels = pixels;
+  Result<PackReport> report = pack_phantom(dir, options, 4);
+  EXPECT_TRUE(report.ok()) << report.status().message();
+  return read_manifest(dir);
+}
+
 TEST(PackLevels, LevelShareKeepsTheCoarsestAndWhatFits) {
   const std::string whole_dir = scratch_dir() + "/share_whole";
   ASSERT_TRUE(pack_phantom(whole_dir, whole_chain(), 4).ok());
   const Manifest whole = read_manifest(whole_dir);
   for (const double share : {0.0, 0.15, 0.5}) {
     SCOPED_TRACE("share " + std::to_string(share));
-    PackOptions options;
-    options.level_share = share;
-    options.lod_view_pixels = 0;  // the share alone
     const std::string dir = scratch_dir() + "/share_" + std::to_string(int(share * 100));
-    ASSERT_TRUE(pack_phantom(dir, options, 4).ok());
-    const Manifest m = read_manifest(dir);
+    const Manifest m = pack_kept(dir, share, 0);  // the share alone
     ASSERT_EQ(m.components.size(), whole.components.size());
     size_t shortened = 0;
     for (size_t i = 0; i < m.components.size(); ++i) {
@@ -197,12 +203,7 @@ TEST(PackLevels, LevelShareKeepsTheCoarsestAndWhatFits) {
                                   double(box.max.z) - box.min.z});
   for (const double pixels : {256.0, 4096.0}) {
     SCOPED_TRACE("view " + std::to_string(pixels));
-    PackOptions options;
-    options.level_share = 0;
-    options.lod_view_pixels = pixels;
-    const std::string dir = scratch_dir() + "/view_" + std::to_string(int(pixels));
-    ASSERT_TRUE(pack_phantom(dir, options, 4).ok());
-    const Manifest m = read_manifest(dir);
+    const Manifest m = pack_kept(scratch_dir() + "/view_" + std::to_string(int(pixels)), 0, pixels);
     ASSERT_EQ(m.components.size(), whole.components.size());
     size_t deeper = 0;
     for (size_t i = 0; i < m.components.size(); ++i) {

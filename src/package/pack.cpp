@@ -444,7 +444,9 @@ Result<EncodedParts> encode_stage(
   progress(PackStage::kEncode, 0, jobs.size());
   arena.execute([&] {
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
-      const auto [p, k] = jobs[j];
+      // Plain variables, not a structured binding: encode_level below captures them (C++20
+      // lets a lambda capture a binding; clang 14 does not).
+      const size_t p = jobs[j].first, k = jobs[j].second;
       const std::vector<Mesh>& levels = levels_of[p][k];
       const Mesh& piece = pieces_of[p][k];
       Encoded& c = out.components[j];
