@@ -352,8 +352,8 @@ Result<std::vector<std::vector<Mesh>>> segment_stage(const std::vector<Mesh>& pa
 
 /// Levels: the coarser levels of every piece larger than options.lod_min_triangles (in parallel
 /// over pieces, each result in its own slot). Returns them per part, per piece, coarsest first.
-/// Their distances are measured when they are encoded, only for the levels the share keeps.
-Result<std::vector<std::vector<std::vector<Mesh>>>> levels_stage(
+/// Their distances are measured when they are encoded, only for the levels the package keeps.
+std::vector<std::vector<std::vector<Mesh>>> levels_stage(
     const std::vector<size_t>& prototypes, const std::vector<std::vector<Mesh>>& pieces_of,
     const PackOptions& options, const Progress& progress, tbb::task_arena& arena) {
   std::vector<std::vector<std::vector<Mesh>>> levels_of(pieces_of.size());
@@ -372,7 +372,6 @@ Result<std::vector<std::vector<std::vector<Mesh>>>> levels_stage(
     return pieces_of[a.first][a.second].triangle_count() >
            pieces_of[b.first][b.second].triangle_count();
   });
-  std::vector<Status> status(jobs.size());
   progress(PackStage::kLevels, 0, jobs.size());
   arena.execute([&] {
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
@@ -380,7 +379,6 @@ Result<std::vector<std::vector<std::vector<Mesh>>>> levels_stage(
       levels_of[p][k] = detail::detail_levels(pieces_of[p][k], options.levels);
     });
   });
-  for (const Status& s : status) OSTEON_RETURN_IF_ERROR(s);
   progress(PackStage::kLevels, jobs.size(), jobs.size());
   return levels_of;
 }
@@ -829,8 +827,7 @@ Result<Built> build(const std::vector<std::string>& inputs, const PackOptions& o
                           segment_stage(in.parts, repeats.prototypes, options, progress, arena));
   ms.segment_ms = ms_since(stage);
   stage = Clock::now();
-  OSTEON_ASSIGN_OR_RETURN(auto levels,
-                          levels_stage(repeats.prototypes, pieces, options, progress, arena));
+  const auto levels = levels_stage(repeats.prototypes, pieces, options, progress, arena);
   ms.levels_ms = ms_since(stage);
   stage = Clock::now();
   OSTEON_ASSIGN_OR_RETURN(EncodedParts encoded, encode_stage(in.parts, repeats.prototypes, pieces,
