@@ -91,7 +91,8 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     for (int k = 0; k < 3; ++k) ordered.xyz[3 * size_t{d} + k] = q.xyz[3 * size_t{v} + k];
   }
   std::vector<uint8_t> geometry;
-  detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry);
+  const detail::GeometryChoice chosen =
+      detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry);
   std::vector<uint8_t> normals;
   if (options.normals) {
     const bool given = mesh.normals.size() == mesh.positions.size();
@@ -131,16 +132,11 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     r.bytes = out.size();
     r.connectivity_bytes = connectivity.bytes.size();
     r.geometry_bytes = geometry.size();
-    r.prediction_mode = geometry.empty() ? 0 : geometry[0];
-    size_t at = 1;                       // the weights follow the mode byte
-    if ((r.prediction_mode & 4) != 0) {  // the shape's two
-      r.shape_scale = geometry[at++];
-      r.shape_apex = geometry[at++];
-    }
-    if ((r.prediction_mode & 8) != 0) {  // the refinements' two
-      r.extrapolation = geometry[at++];
-      r.curvature = geometry[at];
-    }
+    r.prediction_mode = chosen.mode;
+    r.shape_scale = chosen.shape_scale;
+    r.shape_apex = chosen.shape_apex;
+    r.extrapolation = chosen.extrapolation;
+    r.curvature = chosen.curvature;
     r.normal_bytes = normals.size();
     r.vertices = vertex_count;
     r.triangles = mesh.triangle_count();

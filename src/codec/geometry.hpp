@@ -45,8 +45,16 @@ std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid
 /// `lattice` is the grid's QuantizationGrid::lattice (0: none); the encoder codes on that lattice
 /// when its estimate says that is smaller. Appends the current version's geometry section
 /// (docs/FORMAT.md) to `out`. O(V + T).
-void encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q, uint32_t lattice,
-                     std::vector<uint8_t>* out);
+/// Returns what it chose, as the section's first bytes say it (for EncodeReport).
+struct GeometryChoice {
+  uint8_t mode = 0;  ///< the mode byte: prediction mode and the flags of the weights after it
+  int shape_scale = 16;
+  int shape_apex = 0;
+  int extrapolation = 0;
+  int curvature = 0;
+};
+GeometryChoice encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
+                               uint32_t lattice, std::vector<uint8_t>* out);
 /// Decodes a geometry section of stream `version` (1 to 6), for `vertex_count` vertices. `newest`
 /// is decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
 /// each neighbour before the vertex it is filed under, each o too or kNoVertexId). Errors name

@@ -723,13 +723,13 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
   return Status::ok_status();
 }
 
-// The encoder's tangent plane for v, whose coordinates are known: `base` (its prediction) with
-// the normal's largest axis moved onto the plane, as the decoder will move it; with a curvature
-// weight, first moved by the curvature step, from the fed residuals of the vertices before v
-// (v's own is written here).
-inline uint32_t move_onto_tangent_plane(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
-                                        int64_t base[3], bool tangent_plane = true,
-                                        int32_t curvature = 0, int32_t* fed = nullptr) {
+// The encoder's last moves of v's prediction `base`, v's coordinates being known, as the decoder
+// makes them: with a curvature weight, the curvature step, from the fed residuals of the vertices
+// before v (v's own is written here); with the tangent plane, the normal's largest axis moved
+// onto the plane. Returns that axis (kNoAxis without the plane).
+inline uint32_t refine_prediction(uint32_t v, const NewestTriangles& nt, const int32_t* xyz,
+                                  int64_t base[3], bool tangent_plane = true,
+                                  int32_t curvature = 0, int32_t* fed = nullptr) {
   if (!tangent_plane && curvature == 0) return kNoAxis;
   for (int k = 0; curvature != 0 && k < 3; ++k) {
     fed[3 * size_t{v} + k] = fed_residual(xyz[3 * size_t{v} + k], base[k]);
@@ -794,8 +794,8 @@ void encode_loop(const NewestTriangles& nt, const QuantizedPositions& q, const C
     const Prediction pred = predict(v, nt, xyz, symbols, mode, shape, refine.extrapolation, placed);
     if (lattice == 0) {
       int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
-      const uint32_t axis = move_onto_tangent_plane(v, nt, xyz, base, tangent_plane,
-                                                    refine.curvature, state->fed.data());
+      const uint32_t axis = refine_prediction(v, nt, xyz, base, tangent_plane, refine.curvature,
+                                              state->fed.data());
       symbols[v] =
           code_plain(xyz + 3 * size_t{v}, base, pred, axis, pred.local, model, previous, sink);
       continue;
@@ -848,7 +848,7 @@ void encode_pair(const NewestTriangles& nt, const QuantizedPositions& q, const C
     int64_t base[3] = {pred.xyz[0], pred.xyz[1], pred.xyz[2]};
     flat->symbols[v] =
         code_plain(at, base, pred, kNoAxis, pred.local, model, flat->previous, flat_sink);
-    const uint32_t axis = move_onto_tangent_plane(v, nt, xyz, base);
+    const uint32_t axis = refine_prediction(v, nt, xyz, base);
     plane->symbols[v] =
         code_plain(at, base, pred, axis, plane_local, model, plane->previous, plane_sink);
   }
@@ -1081,8 +1081,8 @@ int32_t choose_curvature(const NewestTriangles& nt, const QuantizedPositions& q,
 
 }  // namespace
 
-void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uint32_t lattice,
-                     std::vector<uint8_t>* out) {
+GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q,
+                               uint32_t lattice, std::vector<uint8_t>* out) {
   const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
   assert(nt.first.size() == size_t{vertex_count} + 1 && nt.neighbour.size() == vertex_count);
   const ContextModel model(vertex_count, kStreamVersion);
@@ -1225,8 +1225,14 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   Coding& kept = codings[best];
 
   const bool shaped = !shape.parallelogram();
-  out->push_back(static_cast<uint8_t>(kept.mode | (shaped ? kShapeFlag : 0) |
-                                      (refine.none() ? 0 : kRefineFlag)));
+  GeometryChoice choice;
+  choice.mode = static_cast<uint8_t>(kept.mode | (shaped ? kShapeFlag : 0) |
+                                     (refine.none() ? 0 : kRefineFlag));
+  choice.shape_scale = shape.scale;
+  choice.shape_apex = shape.apex;
+  choice.extrapolation = refine.extrapolation;
+  choice.curvature = refine.curvature;
+  out->push_back(choice.mode);
   if (shaped) {
     out->push_back(static_cast<uint8_t>(shape.scale));
     out->push_back(static_cast<uint8_t>(shape.apex));
@@ -1240,6 +1246,7 @@ void encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q, uin
   kept.enc.reserve(size_t{vertex_count - kept.state.next} * symbols_per_vertex(kept.lattice));
   run(kept, vertex_count, queue(kept.enc));
   kept.enc.append_to(out);
+  return choice;
 }
 
 OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,

@@ -405,7 +405,7 @@ struct EncodedParts {
 Result<EncodedParts> encode_stage(
     const std::vector<Mesh>& parts, const std::vector<size_t>& prototypes,
     const std::vector<std::vector<Mesh>>& pieces_of,
-    const std::vector<std::vector<std::vector<Mesh>>>& levels_of,
+    const std::vector<std::vector<std::vector<Mesh>>>& levels_of, const Aabb& bounds,
     const PackOptions& options, const Progress& progress, tbb::task_arena& arena) {
   EncodedParts out;
   out.components_of.resize(parts.size());
@@ -426,16 +426,13 @@ Result<EncodedParts> encode_stage(
     if (!grid.ok()) return error(grid.status().code(), parts[p].source, grid.status().message());
     grid_of[p] = grid.value();
   }
-  // One pixel of a view lod_view_pixels high that shows the whole package (options.level_share).
-  double extent = 0;
-  {
-    Aabb all;
-    for (const Mesh& part : parts) expand(all, bounding_box(part));
-    if (!all.empty) {
-      extent = std::max({double(all.max.x) - all.min.x, double(all.max.y) - all.min.y,
-                         double(all.max.z) - all.min.z});
-    }
-  }
+  // One pixel of a view lod_view_pixels high that shows the whole package (`bounds`, of every
+  // part) (options.level_share).
+  const double extent =
+      bounds.empty ? 0.0
+                   : std::max({double(bounds.max.x) - bounds.min.x,
+                               double(bounds.max.y) - bounds.min.y,
+                               double(bounds.max.z) - bounds.min.z});
   const double view_pixel = options.lod_view_pixels > 0 ? extent / options.lod_view_pixels
                                                         : std::numeric_limits<double>::infinity();
   std::vector<Status> status(jobs.size());
@@ -492,15 +489,15 @@ Result<EncodedParts> encode_stage(
       const double share = options.level_share * double(c.entry.bytes);
       uint64_t spent = 0;
       std::optional<DistanceQuery> to_full;  // the full level's hierarchy, for every distance
-      for (size_t level = 0; level < levels.size(); ++level) {
-        if (!to_full.has_value()) {
-          Result<DistanceQuery> query = DistanceQuery::build(piece);
-          if (!query.ok()) {
-            status[j] = query.status();
-            return;
-          }
-          to_full.emplace(std::move(query.value()));
+      if (!levels.empty()) {
+        Result<DistanceQuery> query = DistanceQuery::build(piece);
+        if (!query.ok()) {
+          status[j] = query.status();
+          return;
         }
+        to_full.emplace(std::move(query.value()));
+      }
+      for (size_t level = 0; level < levels.size(); ++level) {
         Result<double> distance = detail::level_distance(piece, *to_full, levels[level]);
         if (!distance.ok()) {
           status[j] = distance.status();
@@ -628,7 +625,7 @@ std::vector<std::vector<uint8_t>> chunk_streams(const std::vector<size_t>& strea
 
 /// The manifest and the chunks' bytes: instances, stream order (components by decreasing summed
 /// projected area of their instances), chunks, parts with their display names.
-Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
+Manifest build_manifest(const std::vector<Mesh>& parts, const Aabb& bounds, const Repeats& r,
                         const detail::Names& names_file, uint64_t chunk_bytes,
                         EncodedParts* encoded, std::vector<std::vector<uint8_t>>* chunk_data) {
   Manifest manifest;
@@ -637,7 +634,7 @@ Manifest build_manifest(const std::vector<Mesh>& parts, const Repeats& r,
   // made only of them says which way is up and where the front is.
   manifest.has_view = std::all_of(parts.begin(), parts.end(),
                                   [](const Mesh& part) { return part.label > 0; });
-  for (const Mesh& part : parts) expand(manifest.bounds, bounding_box(part));
+  manifest.bounds = bounds;
   std::vector<double> area_of;
   manifest.instances = place_instances(parts, r, *encoded, &area_of);
   std::vector<size_t> stream(encoded->components.size());
@@ -830,8 +827,11 @@ Result<Built> build(const std::vector<std::string>& inputs, const PackOptions& o
   const auto levels = levels_stage(repeats.prototypes, pieces, options, progress, arena);
   ms.levels_ms = ms_since(stage);
   stage = Clock::now();
-  OSTEON_ASSIGN_OR_RETURN(EncodedParts encoded, encode_stage(in.parts, repeats.prototypes, pieces,
-                                                             levels, options, progress, arena));
+  Aabb bounds;  // of every part: the manifest's, and the view levels are kept for
+  for (const Mesh& part : in.parts) expand(bounds, bounding_box(part));
+  OSTEON_ASSIGN_OR_RETURN(EncodedParts encoded,
+                          encode_stage(in.parts, repeats.prototypes, pieces, levels, bounds,
+                                       options, progress, arena));
   for (const Encoded& c : encoded.components) {
     report->triangles_out += c.entry.triangles;
     report->level_streams += c.entry.levels.size();
@@ -840,8 +840,8 @@ Result<Built> build(const std::vector<std::string>& inputs, const PackOptions& o
   ms.encode_ms = ms_since(stage);
 
   Built built;
-  built.package.manifest = build_manifest(in.parts, repeats, in.names, options.chunk_bytes,
-                                          &encoded, &built.package.chunks);
+  built.package.manifest = build_manifest(in.parts, bounds, repeats, in.names,
+                                          options.chunk_bytes, &encoded, &built.package.chunks);
   built.package.source = "pack";
   built.viewer_files = std::move(in.viewer_files);
   const Manifest& manifest = built.package.manifest;
