@@ -53,7 +53,7 @@ struct PackOptions {
   uint32_t max_triangles = kAutomaticPieces;
   static constexpr uint32_t kAutomaticPieces = 0xFFFFFFFFu;
   static constexpr uint32_t kPieceTriangles = 20000;
-  static constexpr uint32_t kPieceTrianglesWithLevels = 80000;
+  static constexpr uint32_t kPieceTrianglesWithLevels = 160000;
   /// Levels of detail (docs/FORMAT.md "Levels of detail"): every component with more than this
   /// many triangles also gets a chain of coarser levels, each about a quarter of the next, the
   /// coarsest first in the stream. 0: no levels.
@@ -62,14 +62,15 @@ struct PackOptions {
   /// gives (down to a few hundred triangles); 1: no levels (--no-lod).
   int levels = 0;
   /// Which levels of the chain a component keeps (docs/DESIGN.md, "What the levels cost"): its
-  /// coarsest always (it draws the whole skeleton first), then, coarse to fine, each level that
-  /// the view of the whole package needs (the finer kept so far is more than a pixel off in a
-  /// view lod_view_pixels high showing the package's bounds' largest side) or that keeps all its
-  /// kept levels within level_share of its full level's bytes; the first level that is neither
-  /// ends the chain. A coarser level is coded from scratch and costs more a triangle than a dense
-  /// full level (up to twice), so the whole chain adds 25 to 70%; the finest ones serve only
-  /// close views, which show few components and may fetch their full levels instead. A large
-  /// share keeps the whole chain; lod_view_pixels 0 keeps within the share alone.
+  /// coarsest always (it draws the whole skeleton first); then, coarse to fine, each level that
+  /// keeps all its kept levels within level_share of its full level's bytes; then, if the finest
+  /// kept so far is more than a pixel off in the view of the whole package (lod_view_pixels high,
+  /// showing the package's bounds' largest side), the coarsest level that is within that pixel,
+  /// and no other. A coarser level is coded from scratch and costs more a triangle than a dense
+  /// full level (up to twice), so the whole chain adds 25 to 70%; the levels between the share's
+  /// and the view's serve only views smaller than the whole one, and the finest ones only close
+  /// views, which show few components and may fetch their full levels instead. A large share
+  /// keeps the whole chain; lod_view_pixels 0 keeps within the share alone.
   double level_share = 0.15;
   double lod_view_pixels = 1024;
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see

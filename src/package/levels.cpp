@@ -149,23 +149,26 @@ std::vector<Mesh> detail_levels(const Mesh& full, int max_levels) {
   return levels;
 }
 
-Result<double> level_distance(const Mesh& full, const DistanceQuery& to_full, const Mesh& level) {
-  // Both ways: from the level's vertices, edges and faces (3 samples a triangle) to the full
-  // surface; and from every vertex of the full level to the level's surface, where a
-  // simplification's error peaks (the vertices it removed, and whole islands: meshopt may collapse
-  // a small closed component of a bone to nothing, and a subset of the full vertices can miss it,
-  // which once recorded 3 mm for a level 120 mm off). Only the largest distance is wanted, so a
-  // sample stops at the first triangle that cannot raise it (HausdorffOptions::max_only): every
-  // full vertex costs little more than its hint.
+Result<double> level_distance(const Mesh& full, const DistanceQuery& to_full, const Mesh& level,
+                              LevelSampling sampling) {
+  // Both ways: from the level's vertices, edges and faces to the full surface (a level's
+  // triangles are large, and its largest distance is often inside one); and from the vertices of
+  // the full level to the level's surface, where a simplification's error peaks (the vertices it
+  // removed, and whole islands: meshopt may collapse a small closed component of a bone to
+  // nothing, and a subset of the full vertices can miss it, which once recorded 3 mm for a level
+  // 120 mm off). Only the largest distance is wanted, so a sample stops at the first triangle
+  // that cannot raise it (HausdorffOptions::max_only): every full vertex costs little more than
+  // its hint.
+  const bool estimate = sampling == LevelSampling::kEstimate;
   HausdorffOptions level_samples;
-  level_samples.samples_per_face = 3;
+  level_samples.samples_per_face = estimate ? 3 : 30;
   level_samples.max_only = true;  // the level's error is the largest distance alone
   OSTEON_ASSIGN_OR_RETURN(OneSidedDistance forward,
                           one_sided_distance(level, to_full, level_samples));
   OSTEON_ASSIGN_OR_RETURN(DistanceQuery to_level, DistanceQuery::build(level));
   HausdorffOptions full_vertices;
   full_vertices.max_only = true;
-  full_vertices.samples = full.positions.size();  // every vertex
+  full_vertices.samples = estimate ? (full.positions.size() + 3) / 4 : full.positions.size();
   full_vertices.sample_edges = false;
   full_vertices.sample_faces = false;
   full_vertices.known_max = forward.max;  // only the larger of the two is kept

@@ -497,8 +497,12 @@ Result<EncodedParts> encode_stage(
         }
         to_full.emplace(std::move(query.value()));
       }
+      // Coarse to fine: the coarsest always; then each level while the kept ones stay within the
+      // share (each finer level costs more than the one before); then, if the finest kept is more
+      // than a pixel off in the whole view, the first level within that pixel, and none after.
       for (size_t level = 0; level < levels.size(); ++level) {
-        Result<double> distance = detail::level_distance(piece, *to_full, levels[level]);
+        Result<double> distance = detail::level_distance(piece, *to_full, levels[level],
+                                                         detail::LevelSampling::kEstimate);
         if (!distance.ok()) {
           status[j] = distance.status();
           return;
@@ -508,20 +512,33 @@ Result<EncodedParts> encode_stage(
           status[j] = bytes.status();
           return;
         }
-        // The coarsest always; a finer one where the whole view needs it or the kept levels stay
-        // within the share (each finer level costs more than the one before, so the first that
-        // is neither ends it).
-        spent += bytes.value().size();
-        if (level > 0 && double(spent) > share && c.entry.levels.back().error <= view_pixel) {
-          break;
+        const bool fits = level == 0 || double(spent + bytes.value().size()) <= share;
+        if (!fits && c.entry.levels.back().error <= view_pixel) break;
+        // Measured as the viewer draws it: quantized. A level is never recorded as nearer than
+        // the full level's own bound.
+        double error = std::numeric_limits<double>::infinity();
+        if (fits || *distance <= view_pixel) {
+          Result<Mesh> drawn = decode(bytes.value().data(), bytes.value().size(), piece.source);
+          Result<double> measured = drawn.ok()
+                                        ? detail::level_distance(piece, *to_full, drawn.value(),
+                                                                  detail::LevelSampling::kMeasure)
+                                        : Result<double>(drawn.status());
+          if (!measured.ok()) {
+            status[j] = measured.status();
+            return;
+          }
+          error = std::max(measured.value(), c.entry.error_bound);
         }
+        if (!fits && error > view_pixel) continue;  // too coarse for the view, over the share
+        spent += bytes.value().size();
         ManifestLevel entry;
         entry.bytes = bytes.value().size();
         entry.triangles = encoded.triangles;
         entry.vertices = encoded.vertices;
-        entry.error = *distance + half_steps * step;
+        entry.error = error;
         c.entry.levels.push_back(entry);
         c.streams.push_back({sha256_hex(bytes.value()), std::move(bytes.value())});
+        if (!fits) break;  // the level the whole view needs
       }
       c.streams.push_back({sha256_hex(full.value()), std::move(full.value())});
       // Formatted, not concatenated: g++ 12 warns (-Wrestrict, a false positive) on string
