@@ -510,17 +510,23 @@ int main(int argc, char** argv) {
   LevelTargets lod_met;
   if (!levels_table(lod_sets, runs, scratch, &lod_table, &lod_met)) return 2;
   fs::remove_all(scratch);
+  const osteon::PackOptions defaults;
   std::ostringstream lod_body;
   lod_body << "Command: `build-bench/pack_bench --runs " << runs
            << (dense_voxel > 0 ? " --dense-voxel " + fixed(dense_voxel, 2) : std::string())
            << (levels_only ? " --levels-only" : "") << " --write docs/BENCHMARKS.md` on "
            << osteon_bench::cpu_model() << ", " << std::thread::hardware_concurrency()
            << " hardware threads. Each skeleton packed at the default 0.05 mm twice: `--no-lod` "
-              "(full resolution alone) and with levels (the default: components above 1024 "
-              "triangles get a chain of quarters down to 256, of which pack keeps the coarsest, "
-              "those the view of the whole skeleton needs at `--lod-view-pixels` 1024 and those "
-              "within `--level-share` 0.15 of the full level's bytes), both in pieces of at most "
-              "80,000 triangles, pack's default with levels; and once each with the share alone "
+              "(full resolution alone) and with levels (the default: components above "
+           << defaults.lod_min_triangles
+           << " triangles get a chain of quarters down to 256, of which pack keeps the coarsest, "
+              "those within `--level-share` "
+           << defaults.level_share
+           << " of the full level's bytes, and the first level within a pixel of the view of the "
+              "whole skeleton at `--lod-view-pixels` "
+           << defaults.lod_view_pixels << "), both in pieces of at most "
+           << grouped(osteon::PackOptions::kPieceTrianglesWithLevels)
+           << " triangles, pack's default with levels; and once each with the share alone "
               "(`--lod-view-pixels 0`) and with the whole chain (`--level-share` without a "
               "limit), for what they add. Whole skeleton drawn after: the "
               "first chunks, which hold every component's coarsest level (a viewer reading them "

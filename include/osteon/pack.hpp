@@ -71,7 +71,7 @@ struct PackOptions {
   /// and the view's serve only views smaller than the whole one, and the finest ones only close
   /// views, which show few components and may fetch their full levels instead. A large share
   /// keeps the whole chain; lod_view_pixels 0 keeps within the share alone.
-  double level_share = 0.15;
+  double level_share = 0.10;
   double lod_view_pixels = 1024;
   /// Optional file mapping part file stems to display names and groups (JSON or CSV, see
   /// docs/FORMAT.md); empty: display names are the part names.

@@ -141,13 +141,15 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
           ->check(CLI::Range(1, 32));
   CLI::Option* share =
       cmd->add_option("--level-share", args->options.level_share,
-                      "what a component's coarser levels may cost beyond those the whole view "
-                      "needs, as a share of its full level's bytes (default 0.15)")
+                      "what a component's coarser levels may cost, besides its coarsest and the "
+                      "one the whole view needs, as a share of its full level's bytes (default "
+                      "0.1)")
           ->check(CLI::NonNegativeNumber);
   CLI::Option* view =
       cmd->add_option("--lod-view-pixels", args->options.lod_view_pixels,
-                      "levels are kept down to one pixel's error in a view this many pixels high "
-                      "showing the whole package (default 1024; 0: the share alone)")
+                      "a component also keeps its first level within one pixel of a view this "
+                      "many pixels high showing the whole package (default 1024; 0: the share "
+                      "alone)")
           ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-lod", args->no_lod, "no levels of detail: full resolution only")
       ->excludes(levels)
