@@ -11,11 +11,12 @@
 // How a coarser level of detail is stored: on a grid as coarse as its distance from the full level
 // allows. A level 0.4 mm off need not keep 0.05 mm, and each doubling of the step saves about
 // three bits a vertex. A vertex may move by up to twice the level's distance: pack measures the
-// quantized level, whose error is then about 1.1 times the distance, for 13% fewer bytes than a
-// move of at most the distance (BodyParts3D and MyoSim). A part that is one component stores the level on a coarser grid; the pieces
-// of a segmented part must meet exactly at every mix of levels, so there only the vertices off the
-// piece's border move, onto a coarser lattice of the part's own grid, and the geometry coder's
-// lattice coding (docs/FORMAT.md, "Geometry section") codes their coordinates in lattice periods.
+// quantized level, whose error is then about 1.1 times the distance, and the coarsest levels of
+// BodyParts3D and MyoSim take 12-14% fewer bytes than with a move of at most the distance. A part
+// that is one component stores the level on a coarser grid; the pieces of a segmented part must
+// meet exactly at every mix of levels, so there only the vertices off the piece's border move,
+// onto a coarser lattice of the part's own grid, and the geometry coder's lattice coding
+// (docs/FORMAT.md, "Geometry section") codes their coordinates in lattice periods.
 
 namespace osteon::detail {
 

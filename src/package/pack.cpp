@@ -515,7 +515,9 @@ Result<EncodedParts> encode_stage(
         const bool fits = level == 0 || double(spent + bytes.value().size()) <= share;
         if (!fits && c.entry.levels.back().error <= view_pixel) break;
         // Measured as the viewer draws it: quantized. A level is never recorded as nearer than
-        // the full level's own bound.
+        // the full level's own bound. One over the share whose estimated distance is already more
+        // than the pixel is not measured: the view cannot use it (quantized, it is further still,
+        // but for sampling noise).
         double error = std::numeric_limits<double>::infinity();
         if (fits || *distance <= view_pixel) {
           Result<Mesh> drawn = decode(bytes.value().data(), bytes.value().size(), piece.source);

@@ -129,8 +129,10 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
                   "tolerance of a repeat in mesh units (default: the codec's bound)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--max-triangles", args->options.max_triangles,
-                  "largest component in triangles (default 80000 with levels of detail, 20000 with "
-                  "--no-lod; 0: never segment)");
+                  "largest component in triangles (default " +
+                      std::to_string(PackOptions::kPieceTrianglesWithLevels) +
+                      " with levels of detail, " + std::to_string(PackOptions::kPieceTriangles) +
+                      " with --no-lod; 0: never segment)");
   cmd->add_option("--lod-min-triangles", args->options.lod_min_triangles,
                   "components with more triangles get coarser levels of detail (default 1024; 0: "
                   "none)");
