@@ -445,25 +445,23 @@ Result<EncodedParts> encode_stage(
       const std::vector<Mesh>& levels = levels_of[p][k];
       const Mesh& piece = pieces_of[p][k];
       Encoded& c = out.components[j];
-      // Level `level` (levels.size(): the full one), `distance` from the full one, encoded; its
-      // grid step in `*step`.
-      auto encode_level = [&](size_t level, double distance, EncodeReport* encoded,
-                              double* step) {
+      // Level `level` (levels.size(): the full one, on the part's grid), `distance` from the
+      // full one, encoded.
+      auto encode_level = [&](size_t level, double distance, EncodeReport* encoded) {
         const Mesh* mesh = level < levels.size() ? &levels[level] : &piece;
         EncodeOptions encode_options;
         encode_options.grid = grid_of[p];
-        // A coarser level's vertices within half a coarser step (src/package/level_grid.cpp): a
-        // whole part on a coarser grid; a segmented part's piece on the part's grid, with the
-        // vertices off its border on a lattice of that step.
-        *step = grid_of[p].step;
+        // A coarser level on a coarser step (src/package/level_grid.cpp): a whole part on a
+        // coarser grid; a segmented part's piece on the part's grid, with the vertices off its
+        // border on a lattice of that step.
         Mesh snapped;
         if (level < levels.size()) {
-          *step = detail::level_step(grid_of[p].step, distance);
+          const double step = detail::level_step(grid_of[p].step, distance);
           if (pieces_of[p].size() == 1) {
-            encode_options.grid.step = *step;
+            encode_options.grid.step = step;
             encode_options.grid.lattice = 0;  // a coarser grid is off the voxel lattice
-          } else if (*step > grid_of[p].step) {
-            const auto period = static_cast<uint32_t>(std::lround(*step / grid_of[p].step));
+          } else if (step > grid_of[p].step) {
+            const auto period = static_cast<uint32_t>(std::lround(step / grid_of[p].step));
             snapped = detail::snap_inside_border(*mesh, grid_of[p], period);
             mesh = &snapped;
             encode_options.grid.lattice = period;
@@ -471,12 +469,9 @@ Result<EncodedParts> encode_stage(
         }
         return encode(*mesh, encode_options, encoded);
       };
-      // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
-      const double half_steps = std::sqrt(3.0) / 2;
       // The full level first: its bytes bound what the coarser ones may cost (level_share).
       EncodeReport encoded;
-      double step = 0;
-      Result<std::vector<uint8_t>> full = encode_level(levels.size(), 0, &encoded, &step);
+      Result<std::vector<uint8_t>> full = encode_level(levels.size(), 0, &encoded);
       if (!full.ok()) {
         status[j] = full.status();
         return;
@@ -485,7 +480,8 @@ Result<EncodedParts> encode_stage(
       c.entry.triangles = encoded.triangles;
       c.entry.vertices = encoded.vertices;
       c.entry.bounds = bounding_box(piece);
-      c.entry.error_bound = half_steps * step;
+      // Every coordinate within half a step: the position within sqrt(3) / 2 steps.
+      c.entry.error_bound = std::sqrt(3.0) / 2 * grid_of[p].step;
       const double share = options.level_share * double(c.entry.bytes);
       uint64_t spent = 0;
       std::optional<DistanceQuery> to_full;  // the full level's hierarchy, for every distance
@@ -507,31 +503,30 @@ Result<EncodedParts> encode_stage(
           status[j] = distance.status();
           return;
         }
-        Result<std::vector<uint8_t>> bytes = encode_level(level, *distance, &encoded, &step);
+        Result<std::vector<uint8_t>> bytes = encode_level(level, *distance, &encoded);
         if (!bytes.ok()) {
           status[j] = bytes.status();
           return;
         }
         const bool fits = level == 0 || double(spent + bytes.value().size()) <= share;
-        if (!fits && c.entry.levels.back().error <= view_pixel) break;
+        if (!fits && c.entry.levels.back().error <= view_pixel) break;  // the view is served
+        // Over the share, only a level within the view's pixel is kept. One whose estimated
+        // distance is already over it is not measured (quantized, it is further still, but for
+        // sampling noise).
+        if (!fits && *distance > view_pixel) continue;
         // Measured as the viewer draws it: quantized. A level is never recorded as nearer than
-        // the full level's own bound. One over the share whose estimated distance is already more
-        // than the pixel is not measured: the view cannot use it (quantized, it is further still,
-        // but for sampling noise).
-        double error = std::numeric_limits<double>::infinity();
-        if (fits || *distance <= view_pixel) {
-          Result<Mesh> drawn = decode(bytes.value().data(), bytes.value().size(), piece.source);
-          Result<double> measured = drawn.ok()
-                                        ? detail::level_distance(piece, *to_full, drawn.value(),
-                                                                  detail::LevelSampling::kMeasure)
-                                        : Result<double>(drawn.status());
-          if (!measured.ok()) {
-            status[j] = measured.status();
-            return;
-          }
-          error = std::max(measured.value(), c.entry.error_bound);
+        // the full level's own bound.
+        Result<Mesh> drawn = decode(bytes.value().data(), bytes.value().size(), piece.source);
+        Result<double> measured = drawn.ok()
+                                      ? detail::level_distance(piece, *to_full, drawn.value(),
+                                                                detail::LevelSampling::kMeasure)
+                                      : Result<double>(drawn.status());
+        if (!measured.ok()) {
+          status[j] = measured.status();
+          return;
         }
-        if (!fits && error > view_pixel) continue;  // too coarse for the view, over the share
+        const double error = std::max(measured.value(), c.entry.error_bound);
+        if (!fits && error > view_pixel) continue;
         spent += bytes.value().size();
         ManifestLevel entry;
         entry.bytes = bytes.value().size();

@@ -200,8 +200,8 @@ std::vector<uint8_t> border_vertices(const Mesh& mesh);
 /// lattice of `period` steps of `grid` (origin on a plane), each coordinate then within
 /// period / 2 steps of where it was; border vertices stay where they are, so the pieces of one
 /// part still meet exactly, and so do the corners of a triangle that the move would make
-/// degenerate (the encoder would drop it). Positions are written as the codec's dequantization writes them, so
-/// encoding on `grid` finds them on the lattice exactly.
+/// degenerate (the encoder would drop it). Positions are written as the codec's dequantization
+/// writes them, so encoding on `grid` finds them on the lattice exactly.
 Mesh snap_inside_border(const Mesh& mesh, const QuantizationGrid& grid, uint32_t period);
 
 }  // namespace osteon::detail
