@@ -150,10 +150,10 @@ export async function openViewer(context, url, beforeLoad = async () => {}) {
   return { page, problems };
 }
 
-/// Waits until the viewer has loaded (or failed) every component, then for two more frames so the
-/// last component is on screen.
+/// Waits until the viewer has loaded (or failed) every component and its list of bones is whole,
+/// then for two more frames so the last component is on screen.
 export async function waitLoaded(page, timeout = 60000) {
-  await page.waitForFunction(() => window.osteon?.done === true, null, { timeout });
+  await page.waitForFunction(() => window.osteon?.done === true && window.osteon.listsBuilt === true, null, { timeout });
   await settle(page);
   return page.evaluate(() => {
     const { screenPositionOf, screenBoundsOf, select, frame, ...plain } = window.osteon;

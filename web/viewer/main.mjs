@@ -104,6 +104,7 @@ async function readManifest(state) {
     state.fatal = true;
     state.report.framePending = false;
     state.report.done = true;
+    state.report.listsBuilt = true;  // no bones to list
     for (const worker of boot.decoders) worker.terminate();
     emit(state, 'error', { message: state.report.errors.at(-1) });
     return false;
@@ -116,6 +117,7 @@ async function main(state) {
     reportError(state, boot?.rendererError ?? 'osteon: the viewer\'s bootstrap did not start');
     $(state, 'progress-text').textContent = 'Could not start the viewer';
     report.done = true;
+    report.listsBuilt = true;  // no bones to list
     return;
   }
   state.link = boot.link;
@@ -300,6 +302,7 @@ export function createViewer({ host, root, boot, budget = {}, background, syncHa
   main(state).catch((e) => {
     reportError(state, `osteon: the viewer failed: ${e?.stack ?? e}`);
     state.report.done = true;
+    state.report.listsBuilt = true;  // none will be built
   });
   return {
     state,

@@ -264,27 +264,8 @@ export function selectByName(state, name, options) {
 function buildLists(state) {
   const { manifest, partRows } = state;
   const list = $(state, 'part-list');
-  const rows = document.createDocumentFragment();
   // One collator for the whole sort: localeCompare with options makes one per comparison.
   const sorted = [...manifest.parts].sort((a, b) => compareNames(a.displayName, b.displayName));
-  for (const part of sorted) {
-    const li = document.createElement('li');
-    const checkbox = document.createElement('input');
-    checkbox.type = 'checkbox';
-    checkbox.checked = partVisible(state, part.id);
-    checkbox.dataset.part = String(part.id);
-    const button = document.createElement('button');
-    button.type = 'button';
-    button.title = part.name;
-    button.dataset.part = String(part.id);
-    li.append(checkbox, button);
-    li.classList.toggle('hidden-part', !partVisible(state, part.id));
-    rows.append(li);
-    const row = { part, li, checkbox, button };
-    nameRow(state, row);
-    partRows.push(row);
-  }
-  list.append(rows);
   const tree = buildTree(state, $(state, 'region-tree'), {
     partVisible: (id) => partVisible(state, id),
     toggle: (key) => toggleNode(state, key),
@@ -310,7 +291,40 @@ function buildLists(state) {
     const button = e.target.closest('button[data-part]');
     if (button) select(state, Number(button.dataset.part), { frame: true, scroll: false });
   });
-  filterList(state);
+  // The rows go in a few at a time, a task each: on a slow phone, laying out a few hundred rows
+  // at once was the load's longest task. Each row takes the state (shown, selected, language)
+  // of when it is made; what changes later reaches the rows made so far.
+  let next = 0;
+  const addRows = () => {
+    const rows = document.createDocumentFragment();
+    for (const end = Math.min(sorted.length, next + kRowsPerTask); next < end; ++next) {
+      const part = sorted[next];
+      const li = document.createElement('li');
+      const checkbox = document.createElement('input');
+      checkbox.type = 'checkbox';
+      checkbox.checked = partVisible(state, part.id);
+      checkbox.dataset.part = String(part.id);
+      const button = document.createElement('button');
+      button.type = 'button';
+      button.title = part.name;
+      button.dataset.part = String(part.id);
+      if (state.selectedPart >= 0) button.setAttribute('aria-current', String(part.id === state.selectedPart));
+      li.append(checkbox, button);
+      li.classList.toggle('hidden-part', !partVisible(state, part.id));
+      rows.append(li);
+      const row = { part, li, checkbox, button };
+      nameRow(state, row);
+      partRows.push(row);
+    }
+    list.append(rows);
+    filterList(state);
+    if (next < sorted.length) {
+      idle(addRows);
+      return;
+    }
+    state.report.listsBuilt = true;
+  };
+  addRows();
   showInfo(state);
   if (tree && state.selectedPart >= 0) revealNode(state, `p${state.selectedPart}`);
   showNodeOpacity(state);
@@ -330,16 +344,24 @@ function nameRow(state, row) {
 // screen by a third of a second when it was built at the first frame.
 export const kListsAfterMs = 3000;
 
+/// Rows of the bone list added a task.
+const kRowsPerTask = 40;
+
 export function buildListsSoon(state) {
-  if (state.listsBuilt || !state.manifest) return;
-  state.listsBuilt = true;
-  const idle = window.requestIdleCallback ?? ((f) => setTimeout(f, 1));
+  if (state.listsStarted || !state.manifest) return;
+  state.listsStarted = true;
   // The names' collator first, in a task of its own: with the lists' rows, one task on a slow
   // phone would be a long one.
   idle(() => {
     prepareNames();
-    idle(() => buildLists(state), { timeout: 500 });
-  }, { timeout: 500 });
+    idle(() => buildLists(state));
+  });
+}
+
+/// Runs `f` when the browser is idle, or within half a second.
+function idle(f) {
+  if (window.requestIdleCallback) window.requestIdleCallback(f, { timeout: 500 });
+  else setTimeout(f, 1);
 }
 
 /// The group checkboxes, all on, once the manifest is read.

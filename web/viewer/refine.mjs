@@ -73,7 +73,8 @@ export function frustumPlanes(m) {
 
 /// Whether a sphere { center, radius } lies wholly outside one of `planes`.
 export function sphereOutside(planes, { center, radius }) {
-  return planes.some((p) => p[0] * center[0] + p[1] * center[1] + p[2] * center[2] + p[3] < -radius);
+  for (const p of planes) if (p[0] * center[0] + p[1] * center[1] + p[2] * center[2] + p[3] < -radius) return true;
+  return false;
 }
 
 /// Each instance's world bounding sphere, from its component's box under its matrix:

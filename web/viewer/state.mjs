@@ -40,7 +40,7 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
     groupOn: new Map(),      // group -> whether its checkbox is on
     groupBoxes: new Map(),   // group -> its checkbox in the group list (none with a region tree)
     partRows: [],            // { part, li, checkbox, button } per part, in list order
-    listsBuilt: false,
+    listsStarted: false,
     tree: null,              // the region tree (region_tree.mjs createTreeModel), once the lists are built
     language: 'und',         // the language the panel names bones in (a tag of manifest.languages)
     colorBy: 'part',         // the colour menu: 'part' (the manifest's colours), 'region', 'system'
@@ -93,6 +93,7 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
       // refineIdle.
       errors: [],              // 'osteon: ...' messages, as listed in the page
       done: false,             // every component loaded or failed (or the manifest failed)
+      listsBuilt: false,       // the panel's list of bones is whole (built a few rows a task once loading ends; true at once without a manifest)
       fetchLog: [],            // per component in fetch order: { id, chunk, file, offset, bytes, fetchStart, fetchEnd, decodedAt, addedAt, error }
       frames: 0,               // frames the renderer has drawn
       renderMs: null,          // how long the renderer's last render() took on its thread (not the GPU's work)
