@@ -48,6 +48,7 @@ const kSteps = [
   ['manifest', 'manifest in', (s) => s.timings.manifest],
   ['started', 'worker started', (s) => s.timings.started],
   ['startDelay', '  (after the bootstrap)', (s) => s.timings.started - s.res.manifest?.start],
+  ['canvas', 'canvas in the worker', (s) => s.timings.canvas],
   ['context', 'context ready', (s) => s.timings.context],
   ['threeFetched', 'three.js fetched', (s) => s.timings.threeFetched],
   ['chunk', 'first chunk asked', (s) => s.res.chunk?.start],

@@ -223,6 +223,16 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
           deliver({ type: 'fatal', error: boot.rendererError, at: performance.now() });
           return;
         }
+        // The drawing buffer at its size before the context is made on it: resized at the first
+        // frame instead (from 300 x 150), it was made again then, a round trip to the GPU
+        // process that took a quarter of a second with a software GPU. The page was laid out
+        // by the hand-over just now, so reading the size costs nothing; it is computed as the
+        // page's 'size' messages are (view.mjs resize), so the first frame keeps it.
+        const rect = canvas.getBoundingClientRect();
+        if (rect.width > 0 && rect.height > 0) {
+          offscreen.width = Math.floor(Math.max(1, Math.floor(rect.width)) * init.pixelRatio);
+          offscreen.height = Math.floor(Math.max(1, Math.floor(rect.height)) * init.pixelRatio);
+        }
         worker.postMessage({ type: 'canvas', canvas: offscreen }, [offscreen]);
       };
       requestAnimationFrame(handOver);
