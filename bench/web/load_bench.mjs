@@ -523,7 +523,8 @@ async function main() {
         'WebGL is software (SwiftShader) on 2 shared cores: absolute times are only comparable within one run.',
       '',
       `Each way loads the skeleton from \`osteon serve\` on this machine in a fresh browser context, throttled by the DevTools ` +
-        `protocol (Network.emulateNetworkConditions on the page and on every worker it starts) and the cache disabled, under ` +
+        `protocol (Network.emulateNetworkConditions on the page and on every worker it starts), the cache disabled and service workers ` +
+        `blocked (the viewer's offline copy of the package, which it fetches once loading has settled, is not part of a load), under ` +
         `each profile: ${profileText}. ${opt.runs} run${opt.runs > 1 ? 's' : ''} per way and profile, the ways interleaved; the table ` +
         `gives the median and, in brackets, the fastest and slowest run. A load is stopped after ${opt.timeoutMs / 1000} s (\`--timeout\`); ` +
         `what it had not reached by then counts as later than that, and a median past it reads "did not finish in ${opt.timeoutMs / 1000} s". ` +

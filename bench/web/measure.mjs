@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // One page load in headless Chromium, measured: the network throttled and the cache disabled
 // through the DevTools protocol (on the page and on every worker it starts, so a decoder worker's
-// own requests are throttled and counted too), the CPU slowed for the phone profile (on the page
-// only: Chromium refuses Emulation.setCPUThrottlingRate for workers), bytes from
-// Network.loadingFinished, the page's measurement state (window.bench on the peer pages,
+// own requests are throttled and counted too), service workers blocked, the CPU slowed for the
+// phone profile (on the page only: Chromium refuses Emulation.setCPUThrottlingRate for workers),
+// bytes from Network.loadingFinished, the page's measurement state (window.bench on the peer pages,
 // window.osteon in the osteon viewer), a triangles-over-time series sampled on every animation
 // frame (and, in a viewer with levels of detail, the largest screen-space error of a drawn bone),
 // long tasks from a PerformanceObserver registered before any page script runs, and the JS heap
@@ -304,7 +304,10 @@ async function instrument(context, page, profile) {
 /// with `errors`. With `extract`, also returns the drawn triangles ({ positions: Float32Array,
 /// indices: Uint32Array }) in `drawn`.
 export async function measureLoad(browser, url, { profile, viewport, timeoutMs, extract = false }) {
-  const context = await browser.newContext({ viewport, deviceScaleFactor: 1 });
+  // Service workers blocked: the viewer's offline copy of the package (its `offline` attribute),
+  // fetched once loading has settled, is not part of a load, and landed in some loads' byte
+  // counts and not others.
+  const context = await browser.newContext({ viewport, deviceScaleFactor: 1, serviceWorkers: 'block' });
   try {
     await context.addInitScript(kInitScript);
     const page = await context.newPage();
