@@ -317,11 +317,13 @@ function buildLists(state) {
       partRows.push(row);
     }
     list.append(rows);
-    filterList(state);
+    // A search typed meanwhile reaches the new rows; the count waits for the whole list.
     if (next < sorted.length) {
+      if ($(state, 'search').value.trim()) filterList(state);
       idle(addRows);
       return;
     }
+    filterList(state);
     state.report.listsBuilt = true;
   };
   addRows();
