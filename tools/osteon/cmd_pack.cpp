@@ -4,6 +4,7 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -111,6 +112,13 @@ int run_pack(const PackArgs& args) {
 
 void register_pack(CLI::App& app, std::function<int()>* run) {
   auto args = std::make_shared<PackArgs>();
+  // The help's defaults are PackOptions' own (args->options is not parsed yet).
+  const PackOptions& defaults = args->options;
+  const auto number = [](double value) {
+    std::ostringstream text;
+    text << value;
+    return text.str();
+  };
   CLI::App* cmd = app.add_subcommand(
       "pack", "Read, clean, find repeats, segment and encode parts into a package folder");
   cmd->add_option("inputs", args->inputs, "mesh files, folders of parts or label volumes (.nii, .nii.gz, .nrrd, .nhdr)")->required();
@@ -134,8 +142,8 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
                       " with levels of detail, " + std::to_string(PackOptions::kPieceTriangles) +
                       " with --no-lod; 0: never segment)");
   cmd->add_option("--lod-min-triangles", args->options.lod_min_triangles,
-                  "components with more triangles get coarser levels of detail (default 1024; 0: "
-                  "none)");
+                  "components with more triangles get coarser levels of detail (default " +
+                      std::to_string(defaults.lod_min_triangles) + "; 0: none)");
   CLI::Option* levels =
       cmd->add_option("--levels", args->options.levels,
                       "at most N levels of detail per component, full one included (default: as "
@@ -144,21 +152,22 @@ void register_pack(CLI::App& app, std::function<int()>* run) {
   CLI::Option* share =
       cmd->add_option("--level-share", args->options.level_share,
                       "what a component's coarser levels may cost, besides its coarsest and the "
-                      "one the whole view needs, as a share of its full level's bytes (default "
-                      "0.1)")
+                      "one the whole view needs, as a share of its full level's bytes (default " +
+                          number(defaults.level_share) + ")")
           ->check(CLI::NonNegativeNumber);
   CLI::Option* view =
       cmd->add_option("--lod-view-pixels", args->options.lod_view_pixels,
                       "a component also keeps its first level within one pixel of a view this "
-                      "many pixels high showing the whole package (default 1024; 0: the share "
-                      "alone)")
+                      "many pixels high showing the whole package (default " +
+                          number(defaults.lod_view_pixels) + "; 0: the share alone)")
           ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-lod", args->no_lod, "no levels of detail: full resolution only")
       ->excludes(levels)
       ->excludes(share)
       ->excludes(view);
   cmd->add_option("--chunk-bytes", args->options.chunk_bytes,
-                  "largest chunk file: streams are concatenated in stream order (default 524288)")
+                  "largest chunk file: streams are concatenated in stream order (default " +
+                      std::to_string(defaults.chunk_bytes) + ")")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 40));
   cmd->add_option("--names", args->options.names,
                   "JSON or CSV mapping file stems to display names and groups");

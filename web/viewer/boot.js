@@ -36,6 +36,7 @@
 // No dependencies but stream.mjs's stall deadline (bundled in): this must run before anything
 // else has downloaded.
 import { fetchWithin, kStallMs, readWithin, within } from './stream.mjs';
+import { cssSize, drawingBufferSize, viewPixelRatio } from './view_size.mjs';
 
 /// The manifest's URL for an element's `src`: a package folder ("pkg/", "pkg") or a manifest's own
 /// URL (ending in .json), relative to `base`.
@@ -158,18 +159,14 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
   let link = null;
   const init = {
     type: 'init',
-    pixelRatio: Math.min(window.devicePixelRatio || 1, 2),
+    pixelRatio: viewPixelRatio(),
     pageOrigin: performance.timeOrigin,
     base: files.renderThree,  // the three.js part's fallback import is resolved against it
     background,
   };
   // The canvas's size, for a renderer on the page (reading it lays the page out: tens of
   // milliseconds with the panel).
-  const measure = () => {
-    const rect = canvas.getBoundingClientRect();
-    init.width = Math.max(1, Math.floor(rect.width));
-    init.height = Math.max(1, Math.floor(rect.height));
-  };
+  const measure = () => Object.assign(init, cssSize(canvas.getBoundingClientRect()));
   boot.offscreen = false;
   if (canvas.transferControlToOffscreen && !renderOnPage) {
     let worker = null;
@@ -227,12 +224,9 @@ export function startBoot({ canvas, manifestUrl: manifestHref, files, renderOnPa
         // frame instead (from 300 x 150), it was made again then, a round trip to the GPU
         // process that took a quarter of a second with a software GPU. The page was laid out
         // by the hand-over just now, so reading the size costs nothing; it is computed as the
-        // page's 'size' messages are (view.mjs resize), so the first frame keeps it.
+        // page's 'size' messages are (view_size.mjs), so the first frame keeps it.
         const rect = canvas.getBoundingClientRect();
-        if (rect.width > 0 && rect.height > 0) {
-          offscreen.width = Math.floor(Math.max(1, Math.floor(rect.width)) * init.pixelRatio);
-          offscreen.height = Math.floor(Math.max(1, Math.floor(rect.height)) * init.pixelRatio);
-        }
+        if (rect.width > 0 && rect.height > 0) Object.assign(offscreen, drawingBufferSize(cssSize(rect), init.pixelRatio));
         worker.postMessage({ type: 'canvas', canvas: offscreen }, [offscreen]);
       };
       requestAnimationFrame(handOver);

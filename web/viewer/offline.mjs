@@ -16,11 +16,15 @@
 // worker must come from the page's), this does nothing. A failure to register is silent: the
 // viewer works as it does without a worker.
 
+import { whenIdle } from './stream.mjs';
+
 // A content-hashed name (service_worker.js kHashed): the files the worker keeps.
 const kHashed = /[/-][0-9a-f]{24}\.[a-z0-9]+$/;
 
 /// The longest the registration waits for the opening view's refinement to settle.
 const kRefineWaitMs = 30000;
+/// Then the longest it waits for an idle moment.
+const kIdleWaitMs = 2000;
 
 /// Resolves once `host`'s report says the refinement in flight has settled (a package without
 /// levels has nothing to refine), or after kRefineWaitMs.
@@ -36,7 +40,6 @@ function refineSettled(host) {
   });
 }
 
-const idle = (run) => (typeof requestIdleCallback === 'function' ? requestIdleCallback(run, { timeout: 2000 }) : setTimeout(run, 0));
 
 /// The registration of `url`'s worker, shared by every element of the page, with what the page
 /// loaded (resource timing entries' URLs) while the worker was not yet active.
@@ -87,7 +90,7 @@ export function keepOffline(host, { worker, manifestUrl, manifest }) {
   }
   if (!/^https?:$/.test(url.protocol) || url.origin !== location.origin) return;
   const entry = workerFor(url.href);
-  host.addEventListener('load', () => refineSettled(host).then(() => idle(async () => {
+  host.addEventListener('load', () => refineSettled(host).then(() => whenIdle(async () => {
     try {
       if (!entry.started) {
         entry.started = true;
@@ -101,5 +104,5 @@ export function keepOffline(host, { worker, manifestUrl, manifest }) {
     } catch (e) {
       // Offline use is an extra: without it the viewer loads from the network, as ever.
     }
-  })), { once: true });
+  }, kIdleWaitMs)), { once: true });
 }

@@ -11,6 +11,7 @@ import { drawInfo, drawStats, findPart, formatLength } from './manifest.mjs';
 import { colorBy } from './palette.mjs';
 import { buildTree, compareNames, filterTree, nodeName, partsUnder, prepareNames, renameTree, revealNode, updateTreeChecks } from './region_tree.mjs';
 import { emit, partVisible, viewChanged } from './state.mjs';
+import { whenIdle } from './stream.mjs';
 import { fitAll, framePart, requestRender, send, sendParts } from './view.mjs';
 
 /// The element `id` of this viewer's markup (its shadow root: several viewers share a page).
@@ -361,10 +362,7 @@ export function buildListsSoon(state) {
 }
 
 /// Runs `f` when the browser is idle, or within half a second.
-function idle(f) {
-  if (window.requestIdleCallback) window.requestIdleCallback(f, { timeout: 500 });
-  else setTimeout(f, 1);
-}
+const idle = (f) => whenIdle(f, 500);
 
 /// The group checkboxes, all on, once the manifest is read.
 export function buildGroups(state) {

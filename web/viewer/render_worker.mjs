@@ -85,6 +85,7 @@
 
 import { createFirstFrames } from './first_frames.mjs';
 import { parseManifest } from './manifest.mjs';
+import { drawingBufferSize } from './view_size.mjs';
 
 // build.mjs replaces OSTEON_RENDER_THREE_FILE with the three.js part's content-hashed file name.
 /* global OSTEON_RENDER_THREE_FILE */
@@ -278,11 +279,10 @@ function drawFirstFrame(r) {
   r.firstQueued = r.queue.length;
   if (!added.length && !(r.frame > 0 && r.latestChanged)) return;
   r.latestChanged = false;
-  const { width, height, pixelRatio } = latest.get('size') ?? init;
-  // As three.js's setSize: the drawing buffer in device pixels (only when it changes: setting it
+  const size = latest.get('size') ?? init;
+  // The drawing buffer as three.js's setSize makes it (set only when it changes: setting it
   // clears the canvas).
-  const w = Math.floor(Math.max(1, width) * pixelRatio);
-  const h = Math.floor(Math.max(1, height) * pixelRatio);
+  const { width: w, height: h } = drawingBufferSize(size, size.pixelRatio);
   if (r.canvas.width !== w) r.canvas.width = w;
   if (r.canvas.height !== h) r.canvas.height = h;
   try {

@@ -30,6 +30,13 @@ export function nextTask() {
   return new Promise((resolve) => setTimeout(resolve, 0));
 }
 
+/// Runs `run` when the browser is idle, or after `timeoutMs` at the latest (requestIdleCallback;
+/// a zero timeout where there is none).
+export function whenIdle(run, timeoutMs) {
+  if (typeof requestIdleCallback === 'function') requestIdleCallback(run, { timeout: timeoutMs });
+  else setTimeout(run, 0);
+}
+
 /// The fetch plan of a parsed manifest (manifest.mjs): the chunks that hold components' first
 /// streams (`component.first`: the coarsest level, or the only one), in the manifest's order,
 /// each with its distinct byte ranges sorted by where they end (the order the bytes complete

@@ -12,6 +12,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { fitBox, kFovDeg, packageView } from './camera.mjs';
 import { findPart } from './manifest.mjs';
 import { partVisible, viewChanged } from './state.mjs';
+import { cssSize, viewPixelRatio } from './view_size.mjs';
 
 // ---------------------------------------------------------------------------------------------
 // Talking to the renderer
@@ -104,9 +105,8 @@ export function sendParts(state) {
 
 /// Gives the renderer the view's size in CSS pixels (`rect`: the view's client rectangle).
 export function resize(state, rect) {
-  const width = Math.max(1, Math.floor(rect.width));
-  const height = Math.max(1, Math.floor(rect.height));
-  const pixelRatio = Math.min(window.devicePixelRatio || 1, 2);
+  const { width, height } = cssSize(rect);
+  const pixelRatio = viewPixelRatio();
   state.viewSize = { width, height, pixelRatio };
   send(state, { type: 'size', width, height, pixelRatio });
   state.camera.aspect = width / height;
