@@ -8,8 +8,8 @@
 // three.js's text in, the first chunk asked for, the first and the last first-level component
 // decoded, three.js loaded, its view made, its shaders compiled, the first frames' program linked,
 // the first frame (window.osteon.firstFrameMs: its draw returned, which is before the frame is on
-// screen), the skeleton complete (skeletonCompleteMs) and refined for the opening view
-// (firstRefinedMs). Several folders are loaded in turn, run by run (A B A B ...), so a change in
+// screen), the skeleton complete (skeletonCompleteMs), the finer levels' first fetch and when the
+// last one was in, decoded and drawn, and refined for the opening view (firstRefinedMs). Several folders are loaded in turn, run by run (A B A B ...), so a change in
 // the machine's load falls on all of them alike: pack the same data with two viewer builds
 // (`osteon pack ... --viewer DIR`) and compare.
 //
@@ -60,6 +60,10 @@ const kSteps = [
   ['firstFrames', 'first-frame program', (s) => s.timings.firstFrames],
   ['firstFrame', 'first frame', (s) => s.firstFrameMs],
   ['complete', 'skeleton complete', (s) => s.skeletonCompleteMs],
+  ['levelAsked', 'first finer level asked', (s) => s.levels[0]],
+  ['levelsIn', 'last finer level in', (s) => s.levels[1]],
+  ['levelsDecoded', 'last finer level decoded', (s) => s.levels[2]],
+  ['levelsShown', 'last finer level drawn', (s) => s.levels[3]],
   ['refined', 'refined (first)', (s) => s.firstRefinedMs],
 ];
 
@@ -80,6 +84,9 @@ function readState() {
     timings: { ...o.timings },
     // The first and the last component decoded (on the page, before going to the renderer).
     decoded: [Math.min(...o.fetchLog.map((e) => e.decodedAt ?? Infinity)), Math.max(...o.fetchLog.map((e) => e.decodedAt ?? -Infinity))],
+    // The finer levels' fetches (levels.mjs levelLog): the first asked for, and when the last one
+    // was in, decoded and drawn.
+    levels: [Math.min(...o.levelLog.map((e) => e.fetchStart)), ...['fetchEnd', 'decodedAt', 'shownAt'].map((k) => Math.max(...o.levelLog.map((e) => e[k] ?? -Infinity)))],
     firstFrameMs: o.firstFrameMs,
     skeletonCompleteMs: o.skeletonCompleteMs,
     firstRefinedMs: o.firstRefinedMs ?? null,

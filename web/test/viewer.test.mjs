@@ -60,6 +60,18 @@ function readState(page) {
 
 /// The triangles drawn when every instance of `m` (a manifest.json) whose part `shown(part)` is
 /// drawn at the level `levelDrawn` (window.osteon's) names for its component.
+/// Holds three.js's code (which the render worker fetches) back on its way in `context` until the
+/// returned function is called: the first frames draw meanwhile.
+async function holdThree(context) {
+  let release;
+  const held = new Promise((resolve) => { release = resolve; });
+  await context.route(/\/render-three-[0-9a-f]+\.js$/, async (route) => {
+    await held;
+    await route.continue();
+  });
+  return release;
+}
+
 function trianglesAtLevels(m, levelDrawn, shown = () => true) {
   const byId = new Map(m.components.map((c) => [c.id, c]));
   return m.instances.filter((i) => shown(i.part)).reduce((sum, i) => {
@@ -416,12 +428,14 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     assert.deepEqual(loaded.errors, []);
     assert.equal(loaded.componentsLoaded, m.components.length);
     assert.equal(loaded.levelsTotal, m.components.reduce((n, c) => n + levelsOf(c.id).length, 0));
-    // The whole skeleton, at its coarsest, from the first chunks alone, before any finer level.
+    // The whole skeleton, at its coarsest, from the first chunks alone, before any finer level
+    // (which may come while the renderer is still busy with the first ones).
     assert.ok(loaded.skeletonCompleteMs !== null && loaded.firstFrameMs <= loaded.skeletonCompleteMs);
     assert.ok(loaded.fetchLog.every((e) => firstChunks.has(e.chunk)));
     assert.equal(loaded.bytesAtSkeletonComplete, firstBytes);
     let state = await waitRefined(page);
-    assert.ok(state.levelLog.every((e) => e.fetchStart >= state.skeletonCompleteMs), 'no level fetched before the skeleton was complete');
+    const firstInHand = Math.max(...state.fetchLog.map((e) => e.decodedAt));
+    assert.ok(state.levelLog.every((e) => e.fetchStart >= firstInHand), 'no level fetched before every first level was decoded');
     assert.ok(state.firstRefinedMs >= state.skeletonCompleteMs && state.refinedMs !== null);
     assert.deepEqual(state.errors, []);
     console.log(`# dense phantom: skeleton complete at ${state.skeletonCompleteMs.toFixed(0)} ms after ${firstBytes} of ${state.bytesTotal} bytes; ` +
@@ -597,13 +611,7 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
   test('before three.js is ready, the first frames draw every bone as three.js then draws it; picks wait for three.js', async () => {
     const m = phantomManifest;
     const context = await browser.newContext(kDesktop);
-    // three.js's code (which the render worker fetches) is held back on its way until released.
-    let releaseThree;
-    const threeHeld = new Promise((resolve) => { releaseThree = resolve; });
-    await context.route(/\/render-three-[0-9a-f]+\.js$/, async (route) => {
-      await threeHeld;
-      await route.continue();
-    });
+    const releaseThree = await holdThree(context);
     const { page, problems } = await openViewer(context, `${server.url}phantom/`);
     const early = await waitLoaded(page);
     assert.deepEqual(early.errors, []);
@@ -636,6 +644,38 @@ describe('osteon viewer in Chromium', { skip: skip ?? false }, () => {
     assert.ok(Math.abs(firstDrawn.differing - drawn.differing) < 0.02 * drawn.differing, 'the first frames cover what three.js covers');
     assert.ok(diff.differing < 0.05 * drawn.differing, `${diff.differing} pixels differ from three.js's frame`);
     assert.ok(Math.abs(firstDrawn.luminance - drawn.luminance) < 8, `lit alike: ${firstDrawn.luminance.toFixed(1)} against ${drawn.luminance.toFixed(1)}`);
+    assert.deepEqual(problems, []);
+    await context.close();
+  });
+
+  test('before three.js is ready, the first frames also draw the finer levels the view needs, and three.js takes over at those levels', async () => {
+    const m = lodPackage();
+    const context = await browser.newContext(kDesktop);
+    const releaseThree = await holdThree(context);
+    const { page, problems } = await openViewer(context, `${server.url}lod/`);
+    await waitLoaded(page);
+    const early = await waitRefined(page);
+    assert.deepEqual(early.errors, []);
+    assert.equal(early.timings.three, undefined, 'three.js has not been loaded');
+    assert.ok(early.refinedMs !== null, 'refined by the first frames');
+    const raised = Object.keys(early.levelDrawn).filter((id) => early.levelDrawn[id] > 0);
+    assert.ok(raised.length > 0, `some bones above their coarsest level: ${JSON.stringify(early.levelDrawn)}`);
+    assert.ok(early.levelLog.every((e) => e.shownAt !== null || e.dropped || e.evictedAt !== null), 'every level fetched is drawn');
+    assert.equal(early.trianglesDrawn, trianglesAtLevels(m, early.levelDrawn));
+    const before = await shootCanvas(page, 'lod-first-frames');
+
+    releaseThree();
+    await page.waitForFunction(() => window.osteon.timings.compiled !== undefined);
+    const after = await waitRefined(page);
+    assert.deepEqual(after.levelDrawn, early.levelDrawn, 'three.js draws the levels the first frames drew');
+    assert.deepEqual(after.errors, []);
+    const shot = await shootCanvas(page, 'lod-three');
+    const bounds = await page.evaluate(() => window.osteon.screenBoundsOf());
+    const drawn = await countForeground(context, shot.png, shot.box, bounds, after.background);
+    const diff = await countDiffering(context, before.png, shot.png);
+    console.log(`# first frames refined ${raised.length} of ${m.components.length} components at ${early.refinedMs.toFixed(0)} ms; ${diff.differing} of ${drawn.differing} bone pixels differ from three.js's frame`);
+    assert.ok(drawn.fraction > 0.05, 'three.js draws the skeleton');
+    assert.ok(diff.differing < 0.05 * drawn.differing, `${diff.differing} pixels differ from three.js's frame`);
     assert.deepEqual(problems, []);
     await context.close();
   });

@@ -531,6 +531,14 @@ describe('levels of detail', () => {
     const big = { bytes: 1e9, triangles: 1e9 };
     assert.deepEqual(planLevels([c0, c1], needs, big, { slots: 1 }).fetch.map((f) => [f.id, f.level]), [['c1', 1]]);
     assert.deepEqual(planLevels([c0, c1], needs, big, { slots: 3 }).fetch.map((f) => [f.id, f.level]), [['c1', 1], ['c0', 2]]);
+    // Beyond the slots, more go while the stream bytes in flight stay small, in the same order.
+    const small = (options) => planLevels([c0, c1], needs, big, options).fetch.map((f) => [f.id, f.level, f.streamBytes]);
+    const [b1, b2] = [c1.levels[1].bytes, c0.levels[2].bytes];
+    assert.deepEqual(small({ slots: 1, moreSlots: 1, smallBytes: b1 + b2 }), [['c1', 1, b1], ['c0', 2, b2]]);
+    assert.deepEqual(small({ slots: 1, moreSlots: 1, smallBytes: b1 + b2 - 1 }), [['c1', 1, b1]]);
+    assert.deepEqual(small({ slots: 0, moreSlots: 2, smallBytes: b1 + b2 }), [['c1', 1, b1], ['c0', 2, b2]]);
+    assert.deepEqual(small({ slots: 0, moreSlots: 2, streamBytes: 1, smallBytes: b1 }), [], 'the first in order does not fit: none goes');
+    assert.deepEqual(small({ slots: 0, moreSlots: 1, smallBytes: 1e9 }), [['c1', 1, b1]]);
     // The priority is the error of what is drawn now: c1 drawn at its finest needs nothing.
     c1.resident.set(1, { bytes: c1.gpu[1], lastVisible: 0 });
     const plan = planLevels([c0, c1], needs, big, { slots: 3 });
@@ -666,6 +674,30 @@ describe('levels of detail', () => {
     assert.equal(renderer.pendingShow('c0'), 2);
     await flush();
     assert.equal(requests.length, 2);
+  });
+
+  test('the loader: with every first level sent and nothing drawn yet, the finer levels the view needs are fetched and swapped in; refined only once drawn', async () => {
+    const m = parseManifest(levelPackage());
+    const { loader, renderer, flush, requests, messages } = fakeLoader(m, { drawn: false });
+    loader.setView(viewOf(cameraAt([0, -100, 0], [0, 0, 0])));
+    assert.equal(requests.length, 0, 'nothing before the first levels are all sent');
+    loader.allSent();
+    await flush();
+    const c0 = m.componentById.get('c0');
+    assert.deepEqual(requests, [`${m.chunks[1].file} bytes=${c0.levels[2].offset}-${c0.levels[2].offset + c0.levels[2].bytes - 1}`]);
+    assert.ok(messages.some((x) => x.type === 'lod' && x.show.some(([id, l]) => id === 'c0' && l === 2)), 'swapped in before the first frame');
+    assert.equal(loader.report.refinedMs, null);
+    assert.equal(loader.report.refineIdle, false, 'not idle before refinement has started');
+    // The first frame draws every bone, c0 at its finer level: refined with it.
+    loader.firstDrawn(m.components.map((c) => c.id));
+    renderer.frame(30);
+    assert.equal(loader.report.refinedMs, null, 'refinement starts with the whole skeleton drawn');
+    loader.start(30);
+    assert.equal(loader.report.levelDrawn.c0, 2);
+    assert.equal(loader.report.refinedMs, 30);
+    assert.equal(loader.report.refineIdle, true);
+    await flush();
+    assert.equal(requests.length, 1, 'nothing fetched twice');
   });
 
   test('a level that arrives after the view stopped needing it is held, not drawn, and refinement still settles', async () => {
@@ -916,12 +948,12 @@ function levelPackage() {
 }
 
 /// A level loader on manifest `m` (from levelPackage) with a fake host, decoder and renderer.
-/// Every component's first level is sent and drawn. `ignoreRange`: the host answers 200 with the
+/// Every component's first level is sent, and drawn unless `drawn` is false. `ignoreRange`: the host answers 200 with the
 /// whole chunk; `corrupt`, `missing`: 'c0/2' streams the decoder refuses, ranges the host has not.
 /// Returns { loader, renderer (frame(at), bytes(), held(id), levelBytes(id, level),
 /// pendingShow(id)), flush (waits for the fetches and decodes), requests ('file bytes=a-b'),
 /// messages (to the renderer) }.
-function fakeLoader(m, { ignoreRange = false, corrupt = [], missing = [], onError = () => {} } = {}) {
+function fakeLoader(m, { ignoreRange = false, corrupt = [], missing = [], onError = () => {}, drawn: firstDrawn = true } = {}) {
   const json = levelPackage();
   const contentOf = new Map(json.chunks.map((c) => [c.file, Uint8Array.from(c.content)]));
   const requests = [];
@@ -994,7 +1026,7 @@ function fakeLoader(m, { ignoreRange = false, corrupt = [], missing = [], onErro
     drawn.set(c.id, 0);
     loader.firstSent([c.id], mesh);
   }
-  loader.firstDrawn(m.components.map((c) => c.id));
+  if (firstDrawn) loader.firstDrawn(m.components.map((c) => c.id));
   const renderer = {
     frame(at = 0) {
       const list = [...changes];

@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // The first frames, drawn before three.js is ready: a small hand-written WebGL 2 program that
-// draws the components that have arrived (their first, coarsest level) under their instances'
-// matrices, with the page's camera, hidden parts, highlight and clipping plane, lit as the bone
-// material lights them (render_three.mjs, scene.mjs): a hemisphere light and a head light on a
-// MeshStandardMaterial (roughness 0.6, no metal, both sides), sRGB output. The render worker
-// (render_worker.mjs) draws with it once its WebGL context exists and until three.js's import
-// begins, and disposes of it when three.js's view is made; three.js then draws the same meshes,
-// from the same arrays, and its frame matches these to a few pixels (a browser test compares them).
+// draws the components that have arrived under their instances' matrices, with the page's camera,
+// hidden parts, highlight and clipping plane, lit as the bone material lights them
+// (render_three.mjs, scene.mjs): a hemisphere light and a head light on a MeshStandardMaterial
+// (roughness 0.6, no metal, both sides), sRGB output. Each component is drawn at its first,
+// coarsest level until the page's levels of detail (levels.mjs) swap a finer one in, as they do
+// with three.js's scene: finer levels are held as they arrive and drawn when the page says so. The
+// render worker (render_worker.mjs) draws with it once its WebGL context exists and until
+// three.js's import begins, and disposes of it when three.js's view is made; three.js then draws
+// the same meshes, from the same arrays, and its frame matches these to a few pixels (a browser
+// test compares them).
 //
 // Why: three.js is most of the viewer's code. Parsing it, making its renderer and compiling the
 // bone material's programs take longer than the first chunks take to arrive and decode; this
@@ -145,7 +148,8 @@ function compile(gl, type, source) {
 
 /// The first frames' drawer on `gl` (a WebGL 2 context) for `manifest` (manifest.mjs), or null
 /// when its program does not link (then three.js draws the first frame, as it would anyway).
-/// Returns { add(id, mesh), draw(view), dispose() }.
+/// Returns { add(id, mesh), addLevel(id, level, mesh), show(id, level), remove(id, level),
+/// drawnLevel(id), draw(view), dispose() }.
 export function createFirstFrames(gl, manifest) {
   const program = gl.createProgram();
   const shaders = [compile(gl, gl.VERTEX_SHADER, kVertex), compile(gl, gl.FRAGMENT_SHADER, kFragment)];
@@ -163,36 +167,84 @@ export function createFirstFrames(gl, manifest) {
   const bone = linear(hexRgb(kBone));
   const lit = linear(hexRgb(kHighlight));
   const partColor = manifest.parts.map((p) => (p.color ? linear(p.color) : bone));
-  const meshes = new Map();  // component id -> { vao, buffers, count, type }
+  const meshes = new Map();  // component id -> { levels: Map(level -> { vao, buffers, count, type }), drawn }
+
+  /// The GPU side of one level of component `component`, or null when this program cannot draw
+  /// it as three.js would (counts other than the manifest's, no normals).
+  function upload(component, level, { positions, normals, indices }) {
+    if (!positions || !indices || !normals || normals.length !== positions.length ||
+        indices.length !== component.levels[level].triangles * 3) return null;
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
+    const buffers = [positions, normals].map((array, location) => {
+      const buffer = gl.createBuffer();
+      gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+      gl.bufferData(gl.ARRAY_BUFFER, array, gl.STATIC_DRAW);
+      gl.enableVertexAttribArray(location);
+      gl.vertexAttribPointer(location, 3, gl.FLOAT, false, 0, 0);
+      return buffer;
+    });
+    const index = gl.createBuffer();
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
+    buffers.push(index);
+    gl.bindVertexArray(null);
+    gl.bindBuffer(gl.ARRAY_BUFFER, null);
+    const type = indices instanceof Uint16Array ? gl.UNSIGNED_SHORT : gl.UNSIGNED_INT;
+    return { vao, buffers, count: indices.length, type };
+  }
+
+  function release(entry) {
+    gl.deleteVertexArray(entry.vao);
+    for (const buffer of entry.buffers) gl.deleteBuffer(buffer);
+  }
 
   return {
-    /// Uploads component `id`'s first level; false (nothing kept) when the mesh is not one this
-    /// program can draw as three.js would (counts other than the manifest's, no normals), which
-    /// then waits for three.js.
+    /// Uploads component `id`'s first level and draws it; false (nothing kept) when the mesh is
+    /// not one this program can draw as three.js would (upload), which then waits for three.js.
     add(id, mesh) {
       const component = manifest.componentById.get(id);
-      const { positions, normals, indices } = mesh;
-      if (!component || meshes.has(id) || !positions || !indices || !normals || normals.length !== positions.length ||
-          indices.length !== component.first.triangles * 3) return false;
-      const vao = gl.createVertexArray();
-      gl.bindVertexArray(vao);
-      const buffers = [positions, normals].map((array, location) => {
-        const buffer = gl.createBuffer();
-        gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
-        gl.bufferData(gl.ARRAY_BUFFER, array, gl.STATIC_DRAW);
-        gl.enableVertexAttribArray(location);
-        gl.vertexAttribPointer(location, 3, gl.FLOAT, false, 0, 0);
-        return buffer;
-      });
-      const index = gl.createBuffer();
-      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
-      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
-      buffers.push(index);
-      gl.bindVertexArray(null);
-      gl.bindBuffer(gl.ARRAY_BUFFER, null);
-      const type = indices instanceof Uint16Array ? gl.UNSIGNED_SHORT : gl.UNSIGNED_INT;
-      meshes.set(id, { vao, buffers, count: indices.length, type });
+      if (!component || meshes.has(id)) return false;
+      const entry = upload(component, 0, mesh);
+      if (!entry) return false;
+      meshes.set(id, { levels: new Map([[0, entry]]), drawn: 0 });
       return true;
+    },
+
+    /// Holds finer level `level` of a component already added, not yet drawn (show); false when
+    /// it is held already or cannot be drawn as three.js would.
+    addLevel(id, level, mesh) {
+      const held = meshes.get(id);
+      if (!held || held.levels.has(level) || !(level > 0 && level < manifest.componentById.get(id).levels.length)) return false;
+      const entry = upload(manifest.componentById.get(id), level, mesh);
+      if (entry) held.levels.set(level, entry);
+      return entry !== null;
+    },
+
+    /// Draws component `id` at `level`, a level it holds; returns whether that changed anything.
+    show(id, level) {
+      const held = meshes.get(id);
+      if (!held?.levels.has(level) || held.drawn === level) return false;
+      held.drawn = level;
+      return true;
+    },
+
+    /// Frees level `level` of component `id` (never its first); drawn, the next coarser level
+    /// held is drawn instead, as three.js's scene does. Returns whether the level drawn changed.
+    remove(id, level) {
+      const held = meshes.get(id);
+      const entry = held?.levels.get(level);
+      if (!entry || level === 0) return false;
+      held.levels.delete(level);
+      release(entry);
+      if (held.drawn !== level) return false;
+      held.drawn = Math.max(...[...held.levels.keys()].filter((l) => l < level));
+      return true;
+    },
+
+    /// The level component `id` is drawn at, or null when it is not drawn.
+    drawnLevel(id) {
+      return meshes.get(id)?.drawn ?? null;
     },
 
     /// Draws every component added, each instance of a shown part, on a cleared canvas.
@@ -221,7 +273,8 @@ export function createFirstFrames(gl, manifest) {
       gl.uniform3fv(uniform.lightColor, linear(hexRgb(kHead[0])).map((c) => c * kHead[1]));
       gl.uniform1f(uniform.clipOn, clip?.on ? 1 : 0);
       if (clip?.on) gl.uniform4f(uniform.clipPlane, ...clip.normal, clip.constant);
-      for (const [id, mesh] of meshes) {
+      for (const [id, held] of meshes) {
+        const mesh = held.levels.get(held.drawn);
         gl.bindVertexArray(mesh.vao);
         for (const i of manifest.instancesOf.get(id)) {
           const instance = manifest.instances[i];
@@ -239,10 +292,7 @@ export function createFirstFrames(gl, manifest) {
 
     /// Frees the program and every buffer; the context is left in its default state.
     dispose() {
-      for (const mesh of meshes.values()) {
-        gl.deleteVertexArray(mesh.vao);
-        for (const buffer of mesh.buffers) gl.deleteBuffer(buffer);
-      }
+      for (const held of meshes.values()) for (const entry of held.levels.values()) release(entry);
       meshes.clear();
       gl.deleteProgram(program);
       gl.bindVertexArray(null);

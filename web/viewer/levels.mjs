@@ -24,7 +24,9 @@ import { createRecord, evictionOrder, gpuBytes, indexCopies, instanceSpheres, is
 
 /// What a phone can hold (both are settable: URL parameters, window.osteon.setBudget).
 export const kDefaultBudget = { bytes: 256e6, triangles: 4e6 };
-const kInFlight = 3;           // level fetches at once: a few, so the view's order is kept
+const kInFlight = 3;           // level fetches at once: a few, so the view's order is kept,
+const kMaxInFlight = 8;        // or up to this many while their bytes together stay within
+const kSmallInFlightBytes = 64 << 10;  // this: about a round trip's worth at 10 Mbit/s, 40 ms
 const kCacheBytes = 8 << 20;   // whole chunks kept where a host ignores Range
 
 /// A loader for `manifest` (manifest.mjs). Options:
@@ -33,9 +35,9 @@ const kCacheBytes = 8 << 20;   // whole chunks kept where a host ignores Range
 ///                                            render_worker.mjs lists them)
 ///   onError(message)  onChange()  (the report changed)  now()  signal  budget  base (the
 ///   manifest's URL, for the chunks' URLs)  report (an object to write the report's fields into)
-///   inFlight (default 3)  cacheBytes (whole chunks kept where a host ignores Range; 8 MiB)
+///   inFlight (default 3; more while they are small: kMaxInFlight)  cacheBytes (whole chunks kept where a host ignores Range; 8 MiB)
 ///   stallMs (default kStallMs: a level fetch with no byte for this long fails)
-/// Returns { report, hasLevels, firstSent, firstDrawn, firstFailed, start, setView, shown,
+/// Returns { report, hasLevels, firstSent, firstDrawn, firstFailed, allSent, start, setView, shown,
 /// failedInRenderer, setBudget, setMaxPixelError, levelPixels, plan }; `report` holds the fields
 /// window.osteon shows (see state.mjs).
 export function createLevelLoader(manifest, options) {
@@ -57,6 +59,7 @@ export function createLevelLoader(manifest, options) {
   let needsStale = true;         // the view, the target, what is shown or what is live changed
   let lastStarted = 0;
   let started = false;
+  let fetching = false;          // finer levels may be fetched: every first level is in hand (allSent) or drawn (start)
   let timer = null;
   const hasLevels = manifest.components.some((c) => c.levels.length > 1);
 
@@ -89,11 +92,13 @@ export function createLevelLoader(manifest, options) {
   const reserved = () => {
     let bytes = 0;
     let triangles = 0;
+    let streamBytes = 0;
     for (const p of pending.values()) {
       bytes += p.bytes;
       triangles += p.triangles;
+      streamBytes += p.streamBytes ?? 0;
     }
-    return { bytes, triangles };
+    return { bytes, triangles, streamBytes };
   };
   const peaks = () => {
     report.gpuBytesPeak = Math.max(report.gpuBytesPeak, report.gpuBytes);
@@ -123,7 +128,7 @@ export function createLevelLoader(manifest, options) {
   }
 
   function schedule() {
-    if (timer !== null || !started) return;
+    if (timer !== null || !fetching) return;
     timer = setTimeout(() => {
       timer = null;
       plan();
@@ -143,15 +148,21 @@ export function createLevelLoader(manifest, options) {
 
   /// One round: the view's needs, the planner's decisions, carried out.
   function plan() {
-    if (!started || signal?.aborted) return;
+    if (!fetching || signal?.aborted) return;
     // A plan after a fetch has ended sees the view of the plan before: its needs stay.
     if (view && needsStale) {
       const needs = screenNeeds(manifest, spheres, view, { maxPixelError: report.maxPixelError, shown: shownPart });
-      for (const id of needs.keys()) if (!live.has(id)) needs.delete(id);
+      // Before every bone is drawn, those on their way to the renderer refine too.
+      for (const id of needs.keys()) if (!(live.has(id) || (!started && records.has(id)))) needs.delete(id);
       lastNeeds = needs;
       needsStale = false;
     }
-    const result = planLevels(records.values(), lastNeeds, report.budget, { slots: limit - pending.size, reserved: reserved() });
+    const slots = Math.max(0, limit - pending.size);
+    const { bytes, triangles, streamBytes } = reserved();
+    const result = planLevels(records.values(), lastNeeds, report.budget, {
+      slots, moreSlots: Math.max(0, Math.max(limit, kMaxInFlight) - pending.size - slots), streamBytes, smallBytes: kSmallInFlightBytes,
+      reserved: { bytes, triangles },
+    });
     const show = [];
     for (const [id, level] of result.drawn) {
       const rec = records.get(id);
@@ -316,10 +327,24 @@ export function createLevelLoader(manifest, options) {
       }
     },
 
+    /// Every component's first level is decoded and on its way to the renderer (or failed) before
+    /// the renderer has drawn anything: the finer levels the view needs are fetched from now, so
+    /// that they may be in its first frame (with a software GPU, or a slow one, the first frame
+    /// waits for the WebGL context long after the first levels are in). Refinement proper
+    /// (refinedMs, refineIdle) starts once they are drawn (start).
+    allSent() {
+      if (fetching || signal?.aborted || !hasLevels) return;
+      fetching = true;
+      needsStale = true;
+      plan();
+    },
+
     /// Every component is drawn (or failed) at its first level: refinement starts.
     start(at) {
       if (started || signal?.aborted) return;
       started = true;
+      fetching = true;
+      needsStale = true;
       if (!hasLevels) {
         report.refinedMs = at;
         report.firstRefinedMs = at;
@@ -337,7 +362,7 @@ export function createLevelLoader(manifest, options) {
       view = next;
       needsStale = true;
       if (shown) shownPart = shown;
-      if (started && hasLevels) plan();
+      if (fetching && hasLevels) plan();
     },
 
     /// The renderer's frame at `at` shows these [id, level] changes.

@@ -259,13 +259,17 @@ export function wantedLevel(rec, target, evicted = new Set()) {
 
 /// One round of planning. `records`: every component's record (createRecord); `needs`:
 /// screenNeeds for the components that may refine; `budget`: { bytes, triangles }; `slots`: how
-/// many fetches may start; `reserved`: { bytes, triangles } already promised to fetches in flight.
+/// many fetches may start; beyond them, up to `moreSlots` more while the stream bytes in flight
+/// (`streamBytes` already, plus each level's manifest `bytes`) stay within `smallBytes`: small
+/// levels cost a round trip each more than their transfer, so more of them go at once, in the
+/// same order; `reserved`: { bytes, triangles } already promised to fetches in flight.
 /// Returns { drawn: Map id -> level, evict: [{ id, level, bytes }], fetch: [{ id, level, bytes,
-/// triangles }] (by priority), bytes (resident after the evictions), triangles (drawn) }.
+/// streamBytes, triangles }] (by priority), bytes (resident after the evictions), triangles
+/// (drawn) }.
 /// Guarantees: resident bytes plus reserved never exceed budget.bytes because of a fine level
 /// (levels drawn on screen are evicted only when the budget was lowered below what they hold);
 /// drawn triangles exceed budget.triangles only by coarsest levels.
-export function planLevels(records, needs, budget, { slots = 0, reserved = { bytes: 0, triangles: 0 } } = {}) {
+export function planLevels(records, needs, budget, { slots = 0, moreSlots = 0, streamBytes = 0, smallBytes = 0, reserved = { bytes: 0, triangles: 0 } } = {}) {
   const list = [...records];
   const evicted = new Set();
   const evict = [];
@@ -299,13 +303,22 @@ export function planLevels(records, needs, budget, { slots = 0, reserved = { byt
     if (level > 0) candidates.push({ rec, level, pixels: need.pixels[drawn.get(rec.id)] });
   }
   candidates.sort((a, b) => (b.pixels - a.pixels) || (a.rec.order - b.rec.order));
+  let inFlight = streamBytes;
+  const admitted = (rec, level) => fetch.length < slots ||
+    (fetch.length < slots + moreSlots && inFlight + rec.levels[level].bytes <= smallBytes);
   for (const { rec, level: want } of candidates) {
-    if (fetch.length >= slots) break;
+    if (fetch.length >= slots + moreSlots) break;
     const resident = residentLevels(rec, evicted);
     const finest = resident.length ? resident[resident.length - 1] : -1;
     const now = drawn.get(rec.id);
+    let stop = false;
     for (let level = want; level > finest; --level) {
       if (rec.failed.has(level)) continue;
+      // The next fetch in priority order goes, or none does: order is kept.
+      if (!admitted(rec, level)) {
+        stop = true;
+        break;
+      }
       const cost = rec.gpu[level];
       const delta = (rec.levels[level].triangles - rec.levels[now].triangles) * rec.uses;
       if (triangles + reservedTriangles + delta > budget.triangles) continue;
@@ -322,9 +335,11 @@ export function planLevels(records, needs, budget, { slots = 0, reserved = { byt
       victims.forEach(drop);
       reservedBytes += cost;
       reservedTriangles += Math.max(0, delta);
-      fetch.push({ id: rec.id, level, bytes: cost, triangles: Math.max(0, delta) });
+      inFlight += rec.levels[level].bytes;
+      fetch.push({ id: rec.id, level, bytes: cost, streamBytes: rec.levels[level].bytes, triangles: Math.max(0, delta) });
       break;
     }
+    if (stop) break;
   }
   return { drawn, evict, fetch, bytes, triangles };
 }

@@ -63,6 +63,7 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
     streamBytes: 0,          // bytes the first-stream chunks brought
     pool: null,              // Promise of the decoder pool (streaming.mjs)
     levels: null,            // the levels of detail (levels.mjs createLevelLoader), once the manifest is read
+    idleSent: false,         // the renderer has been told the levels settled ('idle', render_worker.mjs)
     initialBudget: budget,   // { bytes?, triangles? } from the page's URL
     viewSize: { width: 1, height: 1, pixelRatio: 1 },  // the view in CSS pixels
     clip: null,              // the clipping plane as sent to the renderer: { on, normal, constant }
@@ -85,7 +86,7 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
       firstFrameMs: null,      // the same moment: something drawn
       allLoadedMs: null,       // every component drawn (at its first level) or failed
       skeletonCompleteMs: null, // every component drawn at some level (null if one failed)
-      bytesAtSkeletonComplete: null,
+      bytesAtSkeletonComplete: null, // the bytes the skeleton took (its first levels' chunks)
       // Levels of detail (levels.mjs fills these in once the manifest is read): levelsTotal,
       // levelsLoaded, levelsFailed, levelDrawn ({ id: level }, 0 the coarsest), levelWanted,
       // levelLog, levelBytesLoaded, gpuBytes, gpuTriangles, gpuBytesPeak, gpuTrianglesPeak,

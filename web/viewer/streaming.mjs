@@ -66,6 +66,11 @@ export function startLog(state) {
 /// The levels' report changed: the bytes, the counts and the selected bone's info follow.
 function levelsChanged(state) {
   const { report } = state;
+  // The renderer's first frames hand over to three.js once the view has settled (render_worker.mjs).
+  if (report.refineIdle && !state.idleSent) {
+    state.idleSent = true;
+    send(state, { type: 'idle' });
+  }
   report.bytesLoaded = state.streamBytes + report.levelBytesLoaded;
   updateStats(state);
   if (state.selectedPart >= 0) showInfo(state);
@@ -77,7 +82,8 @@ export function finish(state, at) {
   if (report.done) return;
   report.allLoadedMs = at;
   report.done = true;
-  report.bytesAtSkeletonComplete = report.bytesLoaded;
+  // What the whole skeleton took: the first levels' chunks (finer levels may have come meanwhile).
+  report.bytesAtSkeletonComplete = state.streamBytes;
   if (!state.fatal && report.componentsFailed === 0) report.skeletonCompleteMs = at;
   // The decoders stay while finer levels may be asked for.
   if (state.fatal || !state.levels?.hasLevels) for (const worker of state.boot?.decoders ?? []) worker.terminate();
@@ -230,6 +236,15 @@ export async function startStream(state) {
     onChunkError: (chunk, error) => reportError(state, error),
   });
   await stream.run();
+  // Every first level is in hand before anything is drawn: the renderer is still making its
+  // context, and the finer levels the opening view needs may come meanwhile (in time for its first
+  // frame). Once frames are drawn they wait for the whole skeleton (finish), so as not to hold
+  // its last bones back. The first plan in a task of its own, as in finish().
+  if (!state.fatal && state.report.firstFrameMs === null && state.levels?.hasLevels) {
+    nextTask().then(() => {
+      if (!state.fatal && state.report.firstFrameMs === null) state.levels.allSent();
+    });
+  }
   // With levels of detail the pool stays: the finer levels are decoded by it too.
   if (state.fatal || !state.levels?.hasLevels) (await poolReady.catch(() => null))?.terminate();
 }
