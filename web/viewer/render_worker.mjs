@@ -20,10 +20,10 @@
 // Why the first frame comes without three.js: parsing it, making its renderer and compiling the
 // bone material take longer than the first chunks take to arrive and decode. Once the context,
 // the manifest, the page's camera and a decoded component are here, first_frames.mjs (a small
-// WebGL 2 program) draws what has arrived, at its first level, and then the finer levels the
-// page's levels of detail swap in, while the picture is one it draws as three.js would; only
-// then does three.js's import begin. Its view then takes the context over and draws the same
-// meshes in its first frame, in the same task that makes it, so no empty frame shows in between.
+// WebGL 2 program) draws what has arrived, at its first level or at a finer one the page's
+// levels of detail have swapped in by then, and only then does three.js's import begin. Its view
+// then takes the context over and draws the same meshes in its first frame, in the same task that
+// makes it, so no empty frame shows in between.
 //
 // The bootstrap starts this worker from a blob: URL of this script's text, inlined in the page:
 // fetching it first would cost a round trip before the context could be made. (Where blob:
@@ -62,8 +62,6 @@
 //                                           drawn see-through)
 //   { type: 'render', seq }                 draw; the frame reports the seq
 //   { type: 'shown', frame }                the page has had an animation frame since that frame
-//   { type: 'idle' }                        the page's levels of detail have nothing in flight and
-//                                           the view refined (levels.mjs refineIdle), first sent
 // Messages to the page (times are the page's performance.now()):
 //   { type: 'frame', frame, seq, at, drawn: [ids], levels: [[id, level]], renderMs, partsMs, gl }
 //                                                     a frame was drawn (render() returned, or
@@ -122,10 +120,6 @@ const kShownWaitMs = 250;
 // long after the context was made: the components that arrive once its import has begun wait for
 // its first frame.
 const kFirstFramesWaitMs = 500;
-// Once every component is drawn, it waits while the page still refines the view (until its
-// 'idle'), up to this long after the context: the finer levels that arrive meanwhile are drawn
-// by the first frames, which need no three.js and no second context of three.js's making.
-const kFirstFramesRefineMs = 1000;
 
 /// The renderer's state: what has arrived from the page, the view once it can be made, and the
 /// frames. Every step below takes it (as `r`).
@@ -141,7 +135,6 @@ function createRendererState(port, local) {
     threeMessage: null,    // the page's 'three' message, until its import starts
     threeStarted: false,   // its import has started (no first frames after that)
     threeTimer: null,      // the import's start, when it waits for first frames
-    pageIdle: false,       // the page's levels of detail have settled once ('idle')
     contextAt: 0,          // when the context was made
     manifest: null,
     view: null,            // its view, once three.js, the context and the manifest are here
@@ -413,42 +406,23 @@ function startView(r) {
   for (const message of r.picks.splice(0)) answerPick(r, message);
 }
 
-/// Whether the first frames draw the page's picture as three.js would: not with what only
-/// three.js draws (parts' own colours or opacity, the cut's filled sections, two cutting planes).
-function firstFramesExact(r) {
-  const parts = r.latest.get('parts');
-  const clip = r.latest.get('clip');
-  return !parts?.colors && !parts?.opacity && !(clip?.on && (clip.cap || clip.planes?.length > 1));
-}
-
-/// How long after the context three.js's import may still wait for the first frames (0: not at
-/// all): while components still arrive, kFirstFramesWaitMs; then, while the page refines a
-/// picture the first frames draw exactly, kFirstFramesRefineMs, unless finer levels wait for the
-/// GPU to show the last first frame: the next one would come no sooner than three.js's view,
-/// which waits for the same GPU work, and three.js's import is better begun meanwhile.
-function firstFramesWindow(r) {
-  if (r.frame === 0 || !canDrawFirst(r)) return 0;
-  if (r.drawnComponents < r.manifest.components.length) return kFirstFramesWaitMs;
-  const hasLevels = r.manifest.components.some((c) => c.levels.length > 1);
-  const waitingForGpu = r.firstQueued < r.queue.length && r.shownFrame < r.frame;
-  return hasLevels && !r.pageIdle && !waitingForGpu && firstFramesExact(r) ? kFirstFramesRefineMs : 0;
-}
-
 /// Starts three.js's import once the first frames are done: the first one drawn where it can be
 /// drawn now (parsing three.js holds this thread for longer than that frame takes), the next ones
-/// while components still arrive and then while the page refines the view (firstFramesWindow).
+/// while components still arrive, until every one is drawn or kFirstFramesWaitMs have passed
+/// since the context was made. (Not for finer levels that come later: with a software GPU each
+/// more first frame waits for the last one's rasterization, as three.js's view does, and holds
+/// three.js's import back by as much; at 10 Mbit/s BodyParts3D was refined later so.)
 function startThree(r) {
   const message = r.threeMessage;
   if (!message) return;
   if (r.frame === 0) drawFirstFrame(r);
   const waited = now(r) - r.contextAt;
-  const limit = firstFramesWindow(r);
-  if (waited < limit) {
+  if (r.frame > 0 && canDrawFirst(r) && r.drawnComponents < r.manifest.components.length && waited < kFirstFramesWaitMs) {
     // Cleared when it fires: a timer that fires a little early must be able to wait again.
     r.threeTimer ??= setTimeout(() => {
       r.threeTimer = null;
       startThree(r);
-    }, limit - waited);
+    }, kFirstFramesWaitMs - waited);
     return;
   }
   clearTimeout(r.threeTimer);
@@ -577,14 +551,9 @@ function handle(r, message) {
     case 'lod':
       r.queue.push(message);
       requestDataFrame(r);
-      if (r.threeTimer !== null) startThree(r);  // it may not wait for the first frames any more
       return;
     case 'shown':
       onShown(r, message);
-      return;
-    case 'idle':
-      r.pageIdle = true;
-      startThree(r);
       return;
     case 'camera':
     case 'size':

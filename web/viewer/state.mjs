@@ -63,7 +63,6 @@ export function createViewerState({ boot, host = null, root, canvas, camera, bud
     streamBytes: 0,          // bytes the first-stream chunks brought
     pool: null,              // Promise of the decoder pool (streaming.mjs)
     levels: null,            // the levels of detail (levels.mjs createLevelLoader), once the manifest is read
-    idleSent: false,         // the renderer has been told the levels settled ('idle', render_worker.mjs)
     initialBudget: budget,   // { bytes?, triangles? } from the page's URL
     viewSize: { width: 1, height: 1, pixelRatio: 1 },  // the view in CSS pixels
     clip: null,              // the clipping plane as sent to the renderer: { on, normal, constant }

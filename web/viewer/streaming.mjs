@@ -66,11 +66,6 @@ export function startLog(state) {
 /// The levels' report changed: the bytes, the counts and the selected bone's info follow.
 function levelsChanged(state) {
   const { report } = state;
-  // The renderer's first frames hand over to three.js once the view has settled (render_worker.mjs).
-  if (report.refineIdle && !state.idleSent) {
-    state.idleSent = true;
-    send(state, { type: 'idle' });
-  }
   report.bytesLoaded = state.streamBytes + report.levelBytesLoaded;
   updateStats(state);
   if (state.selectedPart >= 0) showInfo(state);
