@@ -215,8 +215,9 @@ export function createFirstFrames(gl, manifest) {
     /// it is held already or cannot be drawn as three.js would.
     addLevel(id, level, mesh) {
       const held = meshes.get(id);
-      if (!held || held.levels.has(level) || !(level > 0 && level < manifest.componentById.get(id).levels.length)) return false;
-      const entry = upload(manifest.componentById.get(id), level, mesh);
+      const component = manifest.componentById.get(id);
+      if (!held || held.levels.has(level) || !(level > 0 && level < component.levels.length)) return false;
+      const entry = upload(component, level, mesh);
       if (entry) held.levels.set(level, entry);
       return entry !== null;
     },

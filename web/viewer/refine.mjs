@@ -306,19 +306,15 @@ export function planLevels(records, needs, budget, { slots = 0, moreSlots = 0, s
   let inFlight = streamBytes;
   const admitted = (rec, level) => fetch.length < slots ||
     (fetch.length < slots + moreSlots && inFlight + rec.levels[level].bytes <= smallBytes);
-  for (const { rec, level: want } of candidates) {
+  next: for (const { rec, level: want } of candidates) {
     if (fetch.length >= slots + moreSlots) break;
     const resident = residentLevels(rec, evicted);
     const finest = resident.length ? resident[resident.length - 1] : -1;
     const now = drawn.get(rec.id);
-    let stop = false;
     for (let level = want; level > finest; --level) {
       if (rec.failed.has(level)) continue;
       // The next fetch in priority order goes, or none does: order is kept.
-      if (!admitted(rec, level)) {
-        stop = true;
-        break;
-      }
+      if (!admitted(rec, level)) break next;
       const cost = rec.gpu[level];
       const delta = (rec.levels[level].triangles - rec.levels[now].triangles) * rec.uses;
       if (triangles + reservedTriangles + delta > budget.triangles) continue;
@@ -339,7 +335,6 @@ export function planLevels(records, needs, budget, { slots = 0, moreSlots = 0, s
       fetch.push({ id: rec.id, level, bytes: cost, streamBytes: rec.levels[level].bytes, triangles: Math.max(0, delta) });
       break;
     }
-    if (stop) break;
   }
   return { drawn, evict, fetch, bytes, triangles };
 }
