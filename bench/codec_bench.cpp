@@ -26,6 +26,8 @@
 #include "osteon/codec.hpp"
 #include "osteon/diagnose.hpp"
 #include "osteon/io.hpp"
+#include "osteon/pack.hpp"
+#include "osteon/volume.hpp"
 
 // The mesh codec against its peers, in one run: osteon, Draco 1.5.5 at compression
 // levels 7 and 10 (in-process, libdraco-dev), meshoptimizer 0.18's vertex and index codecs under
@@ -77,6 +79,13 @@ struct Group {
   std::string name;
   std::string description;
   std::vector<fs::path> files;
+  /// Each part of a file is a row of its own, read with `read` (label volumes: one surface per
+  /// label, as osteon pack reads them); otherwise a file's parts are merged into one mesh.
+  bool per_part = false;
+  osteon::ReadOptions read;
+  /// > 0: each file's meshes are first voxelized at this voxel size (mm) into a label volume,
+  /// which is then read with `read` (surfaces from a segmentation of known bones).
+  double voxelize = 0;
 };
 
 /// Every part of a file in one mesh (a codec stream holds one mesh), as `osteon encode` does.
@@ -160,6 +169,31 @@ std::vector<Group> find_groups(const fs::path& data, int largest_parts) {
   add({"PSB", "Princeton Segmentation Benchmark meshes (MeshsegBenchmark data/off/*.off)",
        files_matching(psb, ".off")},
       psb);
+
+  // Surfaces from a CT segmentation, each bone's as osteon pack makes it from the label volume
+  // (Surface Nets, constrained smoothing, simplified to pack's default fraction of a voxel).
+  fs::path seg = data / "wasserth__TotalSegmentator/tests/reference_files";
+  Group volume{"label volume",
+               "TotalSegmentator's segmentation of its example CT (example_seg.nii.gz, 3 mm "
+               "voxels), every bone label surfaced as osteon pack does by default",
+               {},
+               true,
+               osteon::PackOptions{}.read};
+  volume.read.labels = {"bones"};
+  std::error_code ec;
+  if (fs::exists(seg / "example_seg.nii.gz", ec)) volume.files.push_back(seg / "example_seg.nii.gz");
+  add(volume, seg);
+
+  // Dense surfaces from a label volume: the same BodyParts3D bones, each voxelized at 0.5 mm (a
+  // thin-slice CT's resolution) and surfaced as osteon pack does by default.
+  Group voxelized{"voxelized BodyParts3D",
+                  "the BodyParts3D bones above, each voxelized at 0.5 mm (osteon voxelize) and "
+                  "its label surfaced as osteon pack does by default",
+                  parts.files,
+                  true,
+                  osteon::PackOptions{}.read,
+                  0.5};
+  add(voxelized, bp3d);
   return groups;
 }
 
@@ -861,35 +895,68 @@ int main(int argc, char** argv) {
   }
 
   std::vector<Row> rows;
+  auto wanted = [&](const Group& group, const std::string& label) {
+    return only.empty() || label.find(only) != std::string::npos ||
+           group.name.find(only) != std::string::npos;
+  };
+  // Codes one mesh (or records why it could not be read) as a row.
+  auto measure = [&](Row row, const std::optional<osteon::Mesh>& mesh) {
+    std::fprintf(stderr, "codec_bench: %s %s ...\n", row.group.c_str(), row.label.c_str());
+    if (!mesh) {
+      rows.push_back(row);
+      return;
+    }
+    row.vertices = mesh->vertex_count();
+      row.triangles = mesh->triangle_count();
+      row.closed = osteon::diagnose(*mesh).closed;
+    std::string stem = scratch / (std::to_string(rows.size()) + "_" + safe_name(row.label));
+    row.osteon = run_osteon(*mesh, bits, timing, stem + ".ostm");
+    row.draco = run_draco(*mesh, bits, timing, stem);
+    row.meshopt = run_meshopt(*mesh, bits, timing);
+    if (write_bytes(stem + ".mvb", row.meshopt.buffers.data(), row.meshopt.buffers.size()))
+      row.meshopt.buffers_file = stem + ".mvb";
+    row.meshopt.buffers = {};
+    rows.push_back(std::move(row));
+  };
   for (const Group& group : groups) {
     for (const fs::path& file : group.files) {
       Row row;
       row.group = group.name;
       row.label = file.filename().string();
       row.file = file;
-      if (!only.empty() && row.label.find(only) == std::string::npos &&
-          group.name.find(only) == std::string::npos)
-        continue;
-      std::fprintf(stderr, "codec_bench: %s %s ...\n", group.name.c_str(), row.label.c_str());
       std::error_code ec;
       row.file_bytes = fs::file_size(file, ec);
-      auto mesh = read_mesh(file, &row.error);
-      if (!mesh) {
-        rows.push_back(row);
+      if (!group.per_part) {
+        if (wanted(group, row.label)) measure(row, read_mesh(file, &row.error));
         continue;
       }
-      row.vertices = mesh->vertex_count();
-      row.triangles = mesh->triangle_count();
-      row.closed = osteon::diagnose(*mesh).closed;
-      std::string stem =
-          scratch / (std::to_string(rows.size()) + "_" + safe_name(file.stem().string()));
-      row.osteon = run_osteon(*mesh, bits, timing, stem + ".ostm");
-      row.draco = run_draco(*mesh, bits, timing, stem);
-      row.meshopt = run_meshopt(*mesh, bits, timing);
-      if (write_bytes(stem + ".mvb", row.meshopt.buffers.data(), row.meshopt.buffers.size()))
-        row.meshopt.buffers_file = stem + ".mvb";
-      row.meshopt.buffers = {};
-      rows.push_back(std::move(row));
+      fs::path input = file;
+      if (group.voxelize > 0) {  // the file's meshes as a label volume, in the scratch folder
+        if (!wanted(group, row.label)) continue;
+        input = scratch / (safe_name(file.stem().string()) + ".nii.gz");
+        osteon::Result<osteon::Scene> meshes = osteon::read_path(file.string());
+        osteon::VoxelizeOptions options;
+        options.voxel = group.voxelize;
+        osteon::Status written = meshes.ok() ? osteon::voxelize(*meshes, input.string(), options)
+                                             : meshes.status();
+        if (!written.ok()) {
+          row.error = written.message();
+          if (wanted(group, row.label)) measure(row, std::nullopt);
+          continue;
+        }
+      }
+      auto scene = osteon::read_path(input.string(), group.read);
+      if (!scene.ok()) {
+        row.error = scene.status().message();
+        if (wanted(group, row.label)) measure(row, std::nullopt);
+        continue;
+      }
+      for (osteon::Mesh& part : scene->parts) {
+        Row part_row = row;
+        // A voxelized file's one label is the file itself.
+        if (group.voxelize == 0) part_row.label = row.label + ": " + part.name;
+        if (wanted(group, part_row.label)) measure(part_row, std::move(part));
+      }
     }
   }
 
