@@ -203,6 +203,44 @@ TEST(Codec, EmptyMeshRoundTrips) {
   EXPECT_EQ(decoded->triangle_count(), 0u);
 }
 
+// Where a stream's header puts things (docs/FORMAT.md): fixed fields up to version 6, varint
+// counts and lengths from version 7.
+struct Layout {
+  size_t triangles_at = 0;     // the triangle count
+  size_t connectivity_at = 0;  // the connectivity section's length
+  size_t sections = 0;         // the connectivity section's first byte
+  uint64_t connectivity = 0;   // its length
+};
+
+uint64_t read_varint_at(const std::vector<uint8_t>& bytes, size_t* at) {
+  uint64_t value = 0;
+  for (int shift = 0; *at < bytes.size(); shift += 7) {
+    const uint8_t byte = bytes[(*at)++];
+    value |= uint64_t(byte & 0x7f) << shift;
+    if ((byte & 0x80) == 0) break;
+  }
+  return value;
+}
+
+Layout layout(const std::vector<uint8_t>& bytes) {
+  Layout l;
+  if (bytes[4] < 7) {
+    uint32_t connectivity = 0;
+    std::memcpy(&connectivity, bytes.data() + 48, 4);
+    return {12, 48, 60, connectivity};
+  }
+  size_t at = 6;
+  read_varint_at(bytes, &at);  // vertices
+  l.triangles_at = at;
+  read_varint_at(bytes, &at);
+  at += 3 * 4 + 8;  // the grid
+  l.connectivity_at = at;
+  l.connectivity = read_varint_at(bytes, &at);
+  if ((bytes[5] & 1) != 0) read_varint_at(bytes, &at);  // the normals section's length
+  l.sections = at;
+  return l;
+}
+
 std::vector<uint8_t> small_stream() {
   auto bytes = encode(make_torus(2, 0.5f, 8, 6));
   EXPECT_TRUE(bytes.ok());
@@ -215,9 +253,8 @@ std::vector<uint8_t> small_lattice_stream() {
   auto bytes = encode(make_lattice_sphere(2, 10.0f, 1.3f));
   EXPECT_TRUE(bytes.ok());
   if (!bytes.ok()) return {};
-  uint32_t connectivity_length = 0;
-  std::memcpy(&connectivity_length, bytes->data() + 48, 4);
-  EXPECT_NE((*bytes)[60 + connectivity_length + 1], 0) << "not coded on the lattice";
+  const Layout l = layout(bytes.value());
+  EXPECT_NE((*bytes)[l.sections + l.connectivity + 1], 0) << "not coded on the lattice";
   return bytes.value();
 }
 
@@ -263,8 +300,9 @@ TEST(Codec, CorruptionBehindAValidChecksumNeverCrashes) {
   for (int trial = 0; trial < 8000; ++trial) {
     std::vector<uint8_t> copy = streams[trial % 4];
     int flips = 1 + trial % 4;
+    const size_t sections = layout(copy).sections;
     for (int f = 0; f < flips; ++f) {
-      size_t i = 60 + rng() % (copy.size() - 64);  // inside the sections
+      size_t i = sections + rng() % (copy.size() - sections - 4);  // inside the sections
       copy[i] ^= uint8_t(1u << (rng() % 8));
     }
     set_crc(copy);
@@ -285,11 +323,31 @@ TEST(Codec, HeaderErrorsAreNamed) {
   version[4] = 9;
   EXPECT_NE(decode(version.data(), version.size()).status().message().find("stream version 9"),
             std::string::npos);
-  std::vector<uint8_t> huge = bytes;
-  uint32_t count = 0x0fffffff;
-  std::memcpy(huge.data() + 12, &count, 4);
+  // The triangle count's varint made 2^28 - 1 (four bytes instead of its one or two).
+  std::vector<uint8_t> huge(bytes.begin(), bytes.begin() + layout(bytes).triangles_at);
+  huge.insert(huge.end(), {0xff, 0xff, 0xff, 0x7f});
+  size_t after = layout(bytes).triangles_at;
+  read_varint_at(bytes, &after);
+  huge.insert(huge.end(), bytes.begin() + after, bytes.end());
   set_crc(huge);
   EXPECT_NE(decode(huge.data(), huge.size()).status().message().find("implausible counts"),
+            std::string::npos);
+  // Version 6's fixed fields: the count's four bytes.
+  std::vector<uint8_t> fixed = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
+                                                "/tests/data/golden/pelvis_b14_v6.ostm");
+  ASSERT_GT(fixed.size(), 64u);
+  const uint32_t count = 0x0fffffff;
+  std::memcpy(fixed.data() + layout(fixed).triangles_at, &count, 4);
+  set_crc(fixed);
+  EXPECT_NE(decode(fixed.data(), fixed.size()).status().message().find("implausible counts"),
+            std::string::npos);
+  // A compact header's section lengths beyond the stream.
+  const Layout l = layout(bytes);
+  std::vector<uint8_t> longer(bytes.begin(), bytes.begin() + l.connectivity_at);
+  longer.insert(longer.end(), {0xff, 0xff, 0x03});  // 65535 bytes
+  longer.insert(longer.end(), bytes.begin() + l.sections, bytes.end());
+  set_crc(longer);
+  EXPECT_NE(decode(longer.data(), longer.size()).status().message().find("section lengths"),
             std::string::npos);
   EXPECT_NE(decode(bytes.data(), 10).status().message().find("too short"), std::string::npos);
 }
@@ -302,9 +360,8 @@ TEST(Codec, HeaderErrorsAreNamed) {
 // and bits 4 to 7 are 0.
 TEST(Codec, PredictionModesAreCheckedAgainstVersionAndCoding) {
   auto geometry_mode = [](std::vector<uint8_t>& bytes) -> uint8_t& {
-    uint32_t connectivity = 0;
-    std::memcpy(&connectivity, bytes.data() + 48, 4);
-    return bytes[60 + connectivity];
+    const Layout l = layout(bytes);
+    return bytes[l.sections + l.connectivity];
   };
   std::vector<uint8_t> plane = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
                                                 "/tests/data/golden/pelvis_half_b14_v6.ostm");
@@ -510,7 +567,7 @@ struct OlderVersion {
   uint8_t version;
   size_t goldens;
 };
-constexpr OlderVersion kOlderVersions[] = {{1, 4}, {2, 5}, {3, 7}, {4, 8}, {5, 8}};
+constexpr OlderVersion kOlderVersions[] = {{1, 4}, {2, 5}, {3, 7}, {4, 8}, {5, 8}, {6, 8}};
 
 // "pelvis_b14.ostm" for version 1, "pelvis_b14_v6.ostm" for version 6.
 std::string golden_file(const Golden& g, int version) {
@@ -596,7 +653,7 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
   }
 }
 
-// The decoder keeps reading versions 1 to 5, to the very mesh the current stream of the same
+// The decoder keeps reading versions 1 to 6, to the very mesh the current stream of the same
 // part decodes to (the versions share the grid; they differ in how they predict and code it).
 TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});
@@ -626,7 +683,24 @@ TEST(CodecGolden, DecoderStillReadsOlderVersions) {
       ++files;
     }
   }
-  EXPECT_EQ(files, 32u) << "every older golden file";
+  EXPECT_EQ(files, 40u) << "every older golden file";
+}
+
+// Version 7 changed the header alone: each golden stream's sections are version 6's byte for
+// byte, behind a header half as long.
+TEST(CodecGolden, CompactHeaderKeepsVersion6Sections) {
+  for (const Golden& g : kGoldens) {
+    SCOPED_TRACE(g.name);
+    const std::vector<uint8_t> v6 = test::read_bytes(golden_dir() + "/" + golden_file(g, 6));
+    const std::vector<uint8_t> v7 = test::read_bytes(golden_dir() + "/" + golden_file(g, 7));
+    ASSERT_GT(v6.size(), 64u);
+    ASSERT_GT(v7.size(), 33u);
+    const size_t header_6 = layout(v6).sections, header_7 = layout(v7).sections;
+    EXPECT_EQ(header_6, 60u);
+    EXPECT_LE(header_7, 34u);
+    EXPECT_EQ(std::vector<uint8_t>(v6.begin() + header_6, v6.end() - 4),
+              std::vector<uint8_t>(v7.begin() + header_7, v7.end() - 4));
+  }
 }
 
 TEST(CodecFuzzCorpus, EverySavedStreamDecodesOrFailsCleanly) {

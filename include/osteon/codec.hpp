@@ -18,7 +18,7 @@ namespace osteon {
 /// The .ostm stream version encode() writes; decode() reads versions 1 to this one
 /// (docs/FORMAT.md). A package's manifest records it, so a reader can refuse newer streams up
 /// front.
-inline constexpr int kStreamVersion = 6;
+inline constexpr int kStreamVersion = 7;
 
 /// A quantization grid: position p is stored as round((p - origin) / step) per axis. Several
 /// parts encoded with the same grid meet without cracks where their vertices coincide.

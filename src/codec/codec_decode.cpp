@@ -1,4 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -39,22 +40,113 @@ std::vector<Vec3> compute_vertex_normals(const Mesh& mesh) {
 
 namespace {
 
-/// The checks every reader of a stream starts with: its length, magic and version.
-Status check_stream_header(const uint8_t* data, size_t size, const std::string& source) {
-  if (size < detail::kStreamHeaderBytes + detail::kStreamChecksumBytes) {
+/// A stream's header fields (docs/FORMAT.md): up to version 6 fixed, from version 7 compact.
+struct StreamHeader {
+  uint8_t version = 0;
+  bool has_normals = false;
+  uint32_t vertex_count = 0, triangle_count = 0;
+  double origin[3] = {0, 0, 0};
+  double step = 0;
+  uint64_t lengths[3] = {0, 0, 0};  // connectivity, geometry, normals
+  size_t sections = 0;              // where the connectivity section starts
+};
+
+Status header_error(ErrorCode code, const std::string& source, const char* what, size_t at) {
+  return error(code, source, what, at_byte(at));
+}
+
+/// Reads and checks the header of the stream `data` (`size` bytes, its checksum included; the
+/// checksum itself is not checked here): magic, version, flags, counts, grid, section lengths.
+Status read_header(const uint8_t* data, size_t size, const std::string& source,
+                   StreamHeader* h) {
+  if (size < detail::kCompactHeaderBytes + detail::kStreamChecksumBytes) {
     return error(ErrorCode::kInvalidData, source,
                  detail::message("too short for an osteon stream (% bytes, at least %)",
-                                 {size, detail::kStreamHeaderBytes + detail::kStreamChecksumBytes}),
+                                 {size, detail::kCompactHeaderBytes + detail::kStreamChecksumBytes}),
                  at_byte(size));
   }
   if (std::memcmp(data, detail::kStreamMagic, 4) != 0) {
     return error(ErrorCode::kInvalidData, source, "not an osteon stream (wrong magic)", "byte 0");
   }
-  if (data[4] < detail::kOldestStreamVersion || data[4] > detail::kStreamVersion) {
+  h->version = data[4];
+  if (h->version < detail::kOldestStreamVersion || h->version > detail::kStreamVersion) {
     return error(ErrorCode::kUnsupported, source,
                  detail::message("stream version % (this decoder reads versions % to %)",
-                                 {data[4], detail::kOldestStreamVersion, detail::kStreamVersion}),
+                                 {h->version, detail::kOldestStreamVersion, detail::kStreamVersion}),
                  "byte 4");
+  }
+  ByteReader in(data, size - detail::kStreamChecksumBytes);
+  in.skip(5);
+  uint8_t flags = 0;
+  in.read_le(&flags);
+  if ((flags & ~1) != 0) {
+    return header_error(ErrorCode::kUnsupported, source, "unknown flags in the header", 5);
+  }
+  h->has_normals = (flags & 1) != 0;
+  bool ok = true;
+  size_t counts_at = in.offset(), grid_at = 0, lengths_at = 0, normals_at = 0;
+  if (h->version < detail::kCompactHeaderVersion) {
+    uint16_t reserved = 0;
+    uint32_t lengths[3];
+    ok = in.read_le(&reserved) && in.read_le(&h->vertex_count) && in.read_le(&h->triangle_count);
+    grid_at = in.offset();
+    for (double& o : h->origin) ok = ok && in.read_le(&o);
+    ok = ok && in.read_le(&h->step);
+    lengths_at = in.offset();
+    for (uint32_t& l : lengths) ok = ok && in.read_le(&l);
+    if (!ok) return header_error(ErrorCode::kInvalidData, source, "truncated header", in.offset());
+    if (reserved != 0) {
+      return header_error(ErrorCode::kUnsupported, source, "unknown flags in the header", 5);
+    }
+    std::copy(lengths, lengths + 3, h->lengths);
+    counts_at += 2;
+    normals_at = lengths_at + 8;
+  } else {
+    uint64_t vertices = 0, triangles = 0;
+    float origin[3];
+    ok = in.read_varint(&vertices) && in.read_varint(&triangles);
+    grid_at = in.offset();
+    for (float& o : origin) ok = ok && in.read_le(&o);
+    ok = ok && in.read_le(&h->step);
+    lengths_at = in.offset();
+    ok = ok && in.read_varint(&h->lengths[0]);
+    normals_at = in.offset();
+    ok = ok && (!h->has_normals || in.read_varint(&h->lengths[2]));
+    if (!ok) return header_error(ErrorCode::kInvalidData, source, "truncated header", in.offset());
+    if (vertices > UINT32_MAX || triangles > UINT32_MAX) {
+      return header_error(ErrorCode::kInvalidData, source, "implausible counts", counts_at);
+    }
+    h->vertex_count = static_cast<uint32_t>(vertices);
+    h->triangle_count = static_cast<uint32_t>(triangles);
+    std::copy(origin, origin + 3, h->origin);
+    // The geometry section is what the other two leave.
+    const uint64_t rest = in.remaining();
+    if (h->lengths[0] > rest || h->lengths[2] > rest - h->lengths[0]) {
+      return header_error(ErrorCode::kInvalidData, source,
+                          "section lengths exceed the stream's size", lengths_at);
+    }
+    h->lengths[1] = rest - h->lengths[0] - h->lengths[2];
+  }
+  h->sections = in.offset();
+  if (h->has_normals != (h->lengths[2] != 0)) {
+    return header_error(ErrorCode::kInvalidData, source,
+                        "the normals flag and the normals section's length disagree", normals_at);
+  }
+  if (h->triangle_count > detail::kMaxTriangles ||
+      uint64_t{h->triangle_count} > detail::kMaxTrianglesPerByte * uint64_t{size} ||
+      uint64_t{h->vertex_count} > 3 * uint64_t{h->triangle_count}) {
+    return error(ErrorCode::kInvalidData, source,
+                 detail::message("implausible counts: % vertices, % triangles in % bytes",
+                                 {h->vertex_count, h->triangle_count, size}),
+                 at_byte(counts_at));
+  }
+  if (!(h->step > 0) || !std::isfinite(h->step) || !std::isfinite(h->origin[0]) ||
+      !std::isfinite(h->origin[1]) || !std::isfinite(h->origin[2])) {
+    return header_error(ErrorCode::kInvalidData, source, "invalid quantization grid", grid_at);
+  }
+  if (h->lengths[0] + h->lengths[1] + h->lengths[2] != in.remaining()) {
+    return header_error(ErrorCode::kInvalidData, source,
+                        "section lengths do not add up to the stream's size", lengths_at);
   }
   return Status();
 }
@@ -62,70 +154,34 @@ Status check_stream_header(const uint8_t* data, size_t size, const std::string& 
 }  // namespace
 
 Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source) {
-  OSTEON_RETURN_IF_ERROR(check_stream_header(data, size, source));
+  StreamHeader h;
+  OSTEON_RETURN_IF_ERROR(read_header(data, size, source, &h));
   uint32_t stored_crc = ByteReader::load<uint32_t>(data + size - 4, std::endian::little);
   if (detail::crc32(data, size - 4) != stored_crc) {
     return error(ErrorCode::kInvalidData, source, "checksum mismatch: the stream is corrupt",
                  at_byte(size - 4));
   }
-  ByteReader in(data, size - detail::kStreamChecksumBytes);
-  in.skip(5);
-  uint8_t flags = 0;
-  uint16_t reserved = 0;
-  uint32_t vertex_count = 0, triangle_count = 0;
-  double origin[3], step = 0;
-  uint32_t lengths[3];
-  in.read_le(&flags);
-  in.read_le(&reserved);
-  in.read_le(&vertex_count);
-  in.read_le(&triangle_count);
-  for (double& o : origin) in.read_le(&o);
-  in.read_le(&step);
-  for (uint32_t& l : lengths) in.read_le(&l);
-  const bool has_normals = (flags & 1) != 0;
-  if ((flags & ~1) != 0 || reserved != 0) {
-    return error(ErrorCode::kUnsupported, source, "unknown flags in the header", "byte 5");
-  }
-  if (has_normals != (lengths[2] != 0)) {
-    return error(ErrorCode::kInvalidData, source,
-                 "the normals flag and the normals section's length disagree", "byte 56");
-  }
-  if (triangle_count > detail::kMaxTriangles ||
-      uint64_t{triangle_count} > detail::kMaxTrianglesPerByte * uint64_t{size} ||
-      uint64_t{vertex_count} > 3 * uint64_t{triangle_count}) {
-    return error(ErrorCode::kInvalidData, source,
-                 detail::message("implausible counts: % vertices, % triangles in % bytes",
-                                 {vertex_count, triangle_count, size}),
-                 "byte 8");
-  }
-  if (!(step > 0) || !std::isfinite(step) || !std::isfinite(origin[0]) ||
-      !std::isfinite(origin[1]) || !std::isfinite(origin[2])) {
-    return error(ErrorCode::kInvalidData, source, "invalid quantization grid", "byte 16");
-  }
-  if (uint64_t{lengths[0]} + lengths[1] + lengths[2] != in.remaining()) {
-    return error(ErrorCode::kInvalidData, source,
-                 "section lengths do not add up to the stream's size", "byte 48");
-  }
-  size_t base = in.offset();
-  ByteReader connectivity_in(data + base, lengths[0]);
+  const size_t base = h.sections;
+  const uint32_t vertex_count = h.vertex_count;
+  ByteReader connectivity_in(data + base, h.lengths[0]);
   OSTEON_ASSIGN_OR_RETURN(
       detail::DecodedConnectivity connectivity,
-      detail::decode_connectivity(connectivity_in, vertex_count, triangle_count, source));
-  ByteReader geometry_in(data + base + lengths[0], lengths[1]);
+      detail::decode_connectivity(connectivity_in, vertex_count, h.triangle_count, source));
+  ByteReader geometry_in(data + base + h.lengths[0], h.lengths[1]);
   OSTEON_ASSIGN_OR_RETURN(
       detail::QuantizedPositions q,
-      detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, data[4], source));
+      detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, h.version, source));
   connectivity.newest = detail::NewestTriangles();  // free it before the normals' arrays
   std::vector<uint32_t>& indices = connectivity.indices;
   QuantizationGrid grid;
-  grid.origin = {float(origin[0]), float(origin[1]), float(origin[2])};
-  grid.step = step;
+  grid.origin = {float(h.origin[0]), float(h.origin[1]), float(h.origin[2])};
+  grid.step = h.step;
   Mesh mesh;
   mesh.positions = detail::dequantize(q, grid);
   mesh.indices = std::move(indices);
   mesh.stored_vertices = vertex_count;
-  if (has_normals) {
-    ByteReader normals_in(data + base + lengths[0] + lengths[1], lengths[2]);
+  if (h.has_normals) {
+    ByteReader normals_in(data + base + h.lengths[0] + h.lengths[1], h.lengths[2]);
     OSTEON_ASSIGN_OR_RETURN(mesh.normals,
                             detail::decode_normals(normals_in, mesh.indices, q, source));
   } else {
@@ -135,19 +191,11 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
 }
 
 Result<QuantizationGrid> stream_grid(const uint8_t* data, size_t size, const std::string& source) {
-  OSTEON_RETURN_IF_ERROR(check_stream_header(data, size, source));
-  ByteReader in(data, size);
-  in.skip(16);
-  double origin[3], step = 0;
-  for (double& o : origin) in.read_le(&o);
-  in.read_le(&step);
-  if (!(step > 0) || !std::isfinite(step) || !std::isfinite(origin[0]) ||
-      !std::isfinite(origin[1]) || !std::isfinite(origin[2])) {
-    return error(ErrorCode::kInvalidData, source, "invalid quantization grid", "byte 16");
-  }
+  StreamHeader h;
+  OSTEON_RETURN_IF_ERROR(read_header(data, size, source, &h));
   QuantizationGrid grid;
-  grid.origin = {float(origin[0]), float(origin[1]), float(origin[2])};
-  grid.step = step;
+  grid.origin = {float(h.origin[0]), float(h.origin[1]), float(h.origin[2])};
+  grid.step = h.step;
   return grid;
 }
 

@@ -106,23 +106,23 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
                            options.normal_bits, &normals);
   }
 
+  // The compact header (docs/FORMAT.md): a small mesh's stream is a few hundred bytes, of
+  // which version 6's fixed fields took 64 with the checksum.
   std::vector<uint8_t> out;
-  out.reserve(detail::kStreamHeaderBytes + connectivity.bytes.size() + geometry.size() +
-              detail::kStreamChecksumBytes);
+  out.reserve(detail::kCompactHeaderBytes + 16 + connectivity.bytes.size() + geometry.size() +
+              normals.size() + detail::kStreamChecksumBytes);
   ByteWriter writer(&out);
   writer.write_bytes(detail::kStreamMagic, 4);
   writer.write_le<uint8_t>(detail::kStreamVersion);
   writer.write_le<uint8_t>(normals.empty() ? 0 : 1);  // flags: bit 0 = normals section present
-  writer.write_le<uint16_t>(0);
-  writer.write_le<uint32_t>(vertex_count);
-  writer.write_le<uint32_t>(static_cast<uint32_t>(mesh.triangle_count()));
-  writer.write_le<double>(grid.origin.x);
-  writer.write_le<double>(grid.origin.y);
-  writer.write_le<double>(grid.origin.z);
+  writer.write_varint(vertex_count);
+  writer.write_varint(mesh.triangle_count());
+  writer.write_le<float>(grid.origin.x);  // the grid's origin is a float: exact
+  writer.write_le<float>(grid.origin.y);
+  writer.write_le<float>(grid.origin.z);
   writer.write_le<double>(grid.step);
-  writer.write_le<uint32_t>(static_cast<uint32_t>(connectivity.bytes.size()));
-  writer.write_le<uint32_t>(static_cast<uint32_t>(geometry.size()));
-  writer.write_le<uint32_t>(static_cast<uint32_t>(normals.size()));
+  writer.write_varint(connectivity.bytes.size());
+  if (!normals.empty()) writer.write_varint(normals.size());
   writer.write_bytes(connectivity.bytes.data(), connectivity.bytes.size());
   writer.write_bytes(geometry.data(), geometry.size());
   writer.write_bytes(normals.data(), normals.size());

@@ -55,10 +55,11 @@ struct GeometryChoice {
 };
 GeometryChoice encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
                                uint32_t lattice, std::vector<uint8_t>* out);
-/// Decodes a geometry section of stream `version` (1 to 6), for `vertex_count` vertices. `newest`
-/// is decode_connectivity's for the stream (its vertices < vertex_count, each entry's n and p and
-/// each neighbour before the vertex it is filed under, each o too or kNoVertexId). Errors name
-/// `source` and the byte offset. O(V + T); allocates O(V) beyond the result.
+/// Decodes a geometry section of stream `version` (1 to 7; version 7's section is version 6's),
+/// for `vertex_count` vertices. `newest` is decode_connectivity's for the stream (its vertices <
+/// vertex_count, each entry's n and p and each neighbour before the vertex it is filed under,
+/// each o too or kNoVertexId). Errors name `source` and the byte offset. O(V + T); allocates O(V)
+/// beyond the result.
 Result<QuantizedPositions> decode_geometry(ByteReader& in, const NewestTriangles& newest,
                                            uint32_t vertex_count, uint8_t version,
                                            const std::string& source);

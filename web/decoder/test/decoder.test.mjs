@@ -297,27 +297,42 @@ describe('bad input', () => {
 
   test('counts a stream cannot hold are refused before anything is allocated', async () => {
     // A fresh instance, so its memory shows what this decode asked for. The header's counts
-    // (docs/FORMAT.md, bytes 8 and 12) claim up to 2^28 triangles, 3.2 GB of indices, or 10 GB
-    // with the positions and normals: the decoder bounds them by the stream's bytes (at most
-    // 1024 triangles a byte, no more vertices than three a triangle) and refuses, as the native
-    // decoder does (the same source).
+    // (docs/FORMAT.md: two varints after the flags) claim up to 2^28 triangles, 3.2 GB of
+    // indices, or 10 GB with the positions and normals: the decoder bounds them by the stream's
+    // bytes (at most 1024 triangles a byte, no more vertices than three a triangle) and refuses,
+    // as the native decoder does (the same source).
     const fresh = await wrapper.createDecoder();
     fresh.decode(good);
     const settled = fresh.memoryBytes();
-    const withCounts = (vertices, triangles) => {
-      const bytes = Uint8Array.from(good);
-      const view = new DataView(bytes.buffer);
-      view.setUint32(8, vertices, true);
-      view.setUint32(12, triangles, true);
-      return withChecksum(bytes);
+    const varint = (value) => {
+      const out = [];
+      for (; value >= 0x80; value = Math.floor(value / 0x80)) out.push((value % 0x80) | 0x80);
+      out.push(value);
+      return out;
     };
-    for (const [vertices, triangles] of [[0x20000000, 0x3fffffff], [0xffffffff, 0xffffffff], [3 * 1024 * good.length, 1024 * good.length + 1], [0x10000000, 0x10000000 - 1]]) {
-      assertOsteonError(() => fresh.decode(withCounts(vertices, triangles), 'huge.ostm'),
-        new RegExp(`^osteon: huge\\.ostm: implausible counts: ${vertices} vertices, ${triangles} triangles in ${good.length} bytes`),
+    const skipVarint = (bytes, at) => {
+      while (bytes[at] & 0x80) at++;
+      return at + 1;
+    };
+    const countsEnd = skipVarint(good, skipVarint(good, 6));
+    const withCounts = (vertices, triangles) => withChecksum(Uint8Array.from([
+      ...good.subarray(0, 6), ...varint(vertices), ...varint(triangles), ...good.subarray(countsEnd)]));
+    // One triangle more than 1024 a byte of the stream that declares it (whose varints grow with
+    // the count).
+    let over = 1024 * good.length + 1;
+    while (withCounts(3 * over, over).length * 1024 >= over) over = 1024 * withCounts(3 * over, over).length + 1;
+    for (const [vertices, triangles] of [[0x20000000, 0x3fffffff], [0xffffffff, 0xffffffff], [3 * over, over], [0x10000000, 0x10000000 - 1]]) {
+      const bytes = withCounts(vertices, triangles);
+      assertOsteonError(() => fresh.decode(bytes, 'huge.ostm'),
+        new RegExp(`^osteon: huge\\.ostm: implausible counts: ${vertices} vertices, ${triangles} triangles in ${bytes.length} bytes`),
         `${triangles} triangles`);
     }
     // More vertices than three a triangle.
-    const triangles = new DataView(good.buffer, good.byteOffset).getUint32(12, true);
+    let triangles = 0;
+    for (let at = skipVarint(good, 6), shift = 1; ; at++, shift *= 0x80) {
+      triangles += (good[at] & 0x7f) * shift;
+      if (!(good[at] & 0x80)) break;
+    }
     assertOsteonError(() => fresh.decode(withCounts(3 * triangles + 1, triangles), 'huge.ostm'), /implausible counts/, 'vertices');
     assert.equal(fresh.memoryBytes(), settled, 'no memory grew for the refused streams');
   });
