@@ -197,9 +197,23 @@ describe('the viewer survives hostile packages', { skip: skip ?? false }, () => 
     const file = path.join(dir, manifest.chunks[c.chunk].file);
     const chunk = readFileSync(file);
     const stream = chunk.subarray(c.offset, c.offset + c.bytes);
+    // The header's two count varints (docs/FORMAT.md, after the flags byte) rewritten, the stream
+    // kept at its length: what the longer varints add comes off the end of the geometry section,
+    // which the decoder never reaches.
+    const varint = (value) => {
+      const out = [];
+      for (; value >= 0x80; value = Math.floor(value / 0x80)) out.push((value % 0x80) | 0x80);
+      return [...out, value];
+    };
+    const skipVarint = (at) => {
+      while (stream[at] & 0x80) at++;
+      return at + 1;
+    };
+    const counts = [...varint(0x20000000), ...varint(0x3fffffff)];  // triangles: 12.9 GB of indices
+    const after = skipVarint(skipVarint(6));
+    const rest = stream.slice(after, stream.length - 4 - (counts.length - (after - 6)));
+    stream.set([...counts, ...rest], 6);
     const view = new DataView(stream.buffer, stream.byteOffset, stream.length);
-    view.setUint32(8, 0x20000000, true);   // vertices
-    view.setUint32(12, 0x3fffffff, true);  // triangles: 12 bytes each, 12.9 GB of indices
     view.setUint32(stream.length - 4, crc32(stream.subarray(0, stream.length - 4)), true);
     writeFileSync(file, chunk);
     const { state, longest, context } = await load('huge');

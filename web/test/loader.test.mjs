@@ -171,7 +171,7 @@ describe('OsteonLoader from the npm tarball in Chromium', { skip: skip ?? false 
     // (`--level-share 100`; the default keeps only the phantom's coarsest): chunks that hold
     // levels the finest load skips, which it then asks for by Range.
     osteon('phantom', '-o', path.join(work, 'phantom-src'));
-    phantom = packInto(site, 'phantom', [path.join(work, 'phantom-src')], ['--chunk-bytes', '6000', '--level-share', '100']);
+    phantom = packInto(site, 'phantom', [path.join(work, 'phantom-src')], ['--chunk-bytes', '4000', '--level-share', '100']);
     server = await serve(site);
     browser = await launchBrowser();
     page = await browser.newPage({ viewport: { width: 600, height: 700 } });
