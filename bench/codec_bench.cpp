@@ -181,7 +181,8 @@ std::vector<Group> find_groups(const fs::path& data, int largest_parts) {
                osteon::PackOptions{}.read};
   volume.read.labels = {"bones"};
   std::error_code ec;
-  if (fs::exists(seg / "example_seg.nii.gz", ec)) volume.files.push_back(seg / "example_seg.nii.gz");
+  if (fs::exists(seg / "example_seg.nii.gz", ec))
+    volume.files.push_back(seg / "example_seg.nii.gz");
   add(volume, seg);
 
   // Dense surfaces from a label volume: the same BodyParts3D bones, each voxelized at 0.5 mm (a
@@ -907,8 +908,8 @@ int main(int argc, char** argv) {
       return;
     }
     row.vertices = mesh->vertex_count();
-      row.triangles = mesh->triangle_count();
-      row.closed = osteon::diagnose(*mesh).closed;
+    row.triangles = mesh->triangle_count();
+    row.closed = osteon::diagnose(*mesh).closed;
     std::string stem = scratch / (std::to_string(rows.size()) + "_" + safe_name(row.label));
     row.osteon = run_osteon(*mesh, bits, timing, stem + ".ostm");
     row.draco = run_draco(*mesh, bits, timing, stem);

@@ -333,8 +333,8 @@ TEST(Codec, HeaderErrorsAreNamed) {
   EXPECT_NE(decode(huge.data(), huge.size()).status().message().find("implausible counts"),
             std::string::npos);
   // Version 6's fixed fields: the count's four bytes.
-  std::vector<uint8_t> fixed = test::read_bytes(std::string(OSTEON_SOURCE_DIR) +
-                                                "/tests/data/golden/pelvis_b14_v6.ostm");
+  std::vector<uint8_t> fixed =
+      test::read_bytes(std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/pelvis_b14_v6.ostm");
   ASSERT_GT(fixed.size(), 64u);
   const uint32_t count = 0x0fffffff;
   std::memcpy(fixed.data() + layout(fixed).triangles_at, &count, 4);

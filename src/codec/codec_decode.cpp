@@ -57,23 +57,24 @@ Status header_error(ErrorCode code, const std::string& source, const char* what,
 
 /// Reads and checks the header of the stream `data` (`size` bytes, its checksum included; the
 /// checksum itself is not checked here): magic, version, flags, counts, grid, section lengths.
-Status read_header(const uint8_t* data, size_t size, const std::string& source,
-                   StreamHeader* h) {
+Status read_header(const uint8_t* data, size_t size, const std::string& source, StreamHeader* h) {
   if (size < detail::kCompactHeaderBytes + detail::kStreamChecksumBytes) {
-    return error(ErrorCode::kInvalidData, source,
-                 detail::message("too short for an osteon stream (% bytes, at least %)",
-                                 {size, detail::kCompactHeaderBytes + detail::kStreamChecksumBytes}),
-                 at_byte(size));
+    return error(
+        ErrorCode::kInvalidData, source,
+        detail::message("too short for an osteon stream (% bytes, at least %)",
+                        {size, detail::kCompactHeaderBytes + detail::kStreamChecksumBytes}),
+        at_byte(size));
   }
   if (std::memcmp(data, detail::kStreamMagic, 4) != 0) {
     return error(ErrorCode::kInvalidData, source, "not an osteon stream (wrong magic)", "byte 0");
   }
   h->version = data[4];
   if (h->version < detail::kOldestStreamVersion || h->version > detail::kStreamVersion) {
-    return error(ErrorCode::kUnsupported, source,
-                 detail::message("stream version % (this decoder reads versions % to %)",
-                                 {h->version, detail::kOldestStreamVersion, detail::kStreamVersion}),
-                 "byte 4");
+    return error(
+        ErrorCode::kUnsupported, source,
+        detail::message("stream version % (this decoder reads versions % to %)",
+                        {h->version, detail::kOldestStreamVersion, detail::kStreamVersion}),
+        "byte 4");
   }
   ByteReader in(data, size - detail::kStreamChecksumBytes);
   in.skip(5);
