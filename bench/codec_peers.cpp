@@ -155,6 +155,19 @@ DracoRun run_draco(const osteon::Mesh& mesh, int bits, const Timing& timing,
   return run;
 }
 
+size_t draco_connectivity_bytes(const osteon::Mesh& mesh, int bits) {
+  if (mesh.positions.size() < 2) return 0;
+  osteon::Mesh flat = mesh;
+  // The first two positions keep a nonzero range for the quantizer; every other is the first.
+  std::fill(flat.positions.begin() + 2, flat.positions.end(), flat.positions[0]);
+  auto dm = to_draco(flat, false);
+  Timing once;
+  once.repeat = 1;
+  once.min_seconds = 0;
+  DracoResult r = run_level(*dm, bits, kDracoLevels[1], once, "");
+  return r.error.empty() ? r.bytes : 0;
+}
+
 osteon::QuantizationGrid grid_for(const osteon::Mesh& mesh, int bits) {
   osteon::Aabb box = osteon::bounding_box(mesh);
   double side = std::max({double(box.max.x) - box.min.x, double(box.max.y) - box.min.y,

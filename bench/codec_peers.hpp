@@ -102,6 +102,11 @@ struct DracoRun {
 DracoRun run_draco(const osteon::Mesh& mesh, int bits, const Timing& timing,
                    const std::string& stream_stem);
 
+/// Draco cl10's bytes for `mesh` with every position but two made one point: its connectivity and
+/// headers, with next to no geometry (every residual 0 but a few), so that its stream's bytes less
+/// these are its geometry's. 0 when Draco fails.
+size_t draco_connectivity_bytes(const osteon::Mesh& mesh, int bits);
+
 /// The benchmark's grid: origin at the bounding box's minimum, step = largest side / (2^bits - 1).
 osteon::QuantizationGrid grid_for(const osteon::Mesh& mesh, int bits);
 
