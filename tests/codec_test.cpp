@@ -10,6 +10,7 @@
 #include <memory>
 #include <random>
 
+#include "core/byte_io.hpp"
 #include "fixtures.hpp"
 #include "osteon/io.hpp"
 #include "support/phantom.hpp"
@@ -207,37 +208,31 @@ TEST(Codec, EmptyMeshRoundTrips) {
 // counts and lengths from version 7.
 struct Layout {
   size_t triangles_at = 0;     // the triangle count
+  size_t grid_at = 0;          // the grid, right after the counts
   size_t connectivity_at = 0;  // the connectivity section's length
   size_t sections = 0;         // the connectivity section's first byte
   uint64_t connectivity = 0;   // its length
 };
 
-uint64_t read_varint_at(const std::vector<uint8_t>& bytes, size_t* at) {
-  uint64_t value = 0;
-  for (int shift = 0; *at < bytes.size(); shift += 7) {
-    const uint8_t byte = bytes[(*at)++];
-    value |= uint64_t(byte & 0x7f) << shift;
-    if ((byte & 0x80) == 0) break;
-  }
-  return value;
-}
-
 Layout layout(const std::vector<uint8_t>& bytes) {
-  Layout l;
   if (bytes[4] < 7) {
     uint32_t connectivity = 0;
     std::memcpy(&connectivity, bytes.data() + 48, 4);
-    return {12, 48, 60, connectivity};
+    return {12, 16, 48, 60, connectivity};
   }
-  size_t at = 6;
-  read_varint_at(bytes, &at);  // vertices
-  l.triangles_at = at;
-  read_varint_at(bytes, &at);
-  at += 3 * 4 + 8;  // the grid
-  l.connectivity_at = at;
-  l.connectivity = read_varint_at(bytes, &at);
-  if ((bytes[5] & 1) != 0) read_varint_at(bytes, &at);  // the normals section's length
-  l.sections = at;
+  Layout l;
+  ByteReader in(bytes.data(), bytes.size());
+  uint64_t count = 0;
+  in.skip(6);
+  in.read_varint(&count);  // vertices
+  l.triangles_at = in.offset();
+  in.read_varint(&count);
+  l.grid_at = in.offset();
+  in.skip(3 * 4 + 8);
+  l.connectivity_at = in.offset();
+  in.read_varint(&l.connectivity);
+  if ((bytes[5] & 1) != 0) in.read_varint(&count);  // the normals section's length
+  l.sections = in.offset();
   return l;
 }
 
@@ -323,32 +318,29 @@ TEST(Codec, HeaderErrorsAreNamed) {
   version[4] = 9;
   EXPECT_NE(decode(version.data(), version.size()).status().message().find("stream version 9"),
             std::string::npos);
+  // Edited headers, behind a recomputed checksum: the decoder's message.
+  auto message_of = [](std::vector<uint8_t> edited) {
+    set_crc(edited);
+    return decode(edited.data(), edited.size()).status().message();
+  };
   // The triangle count's varint made 2^28 - 1 (four bytes instead of its one or two).
-  std::vector<uint8_t> huge(bytes.begin(), bytes.begin() + layout(bytes).triangles_at);
-  huge.insert(huge.end(), {0xff, 0xff, 0xff, 0x7f});
-  size_t after = layout(bytes).triangles_at;
-  read_varint_at(bytes, &after);
-  huge.insert(huge.end(), bytes.begin() + after, bytes.end());
-  set_crc(huge);
-  EXPECT_NE(decode(huge.data(), huge.size()).status().message().find("implausible counts"),
-            std::string::npos);
+  const Layout l = layout(bytes);
+  std::vector<uint8_t> huge(bytes.begin(), bytes.begin() + l.triangles_at);
+  ByteWriter(&huge).write_varint(0x0fffffff);
+  huge.insert(huge.end(), bytes.begin() + l.grid_at, bytes.end());
+  EXPECT_NE(message_of(huge).find("implausible counts"), std::string::npos);
   // Version 6's fixed fields: the count's four bytes.
   std::vector<uint8_t> fixed =
       test::read_bytes(std::string(OSTEON_SOURCE_DIR) + "/tests/data/golden/pelvis_b14_v6.ostm");
   ASSERT_GT(fixed.size(), 64u);
   const uint32_t count = 0x0fffffff;
   std::memcpy(fixed.data() + layout(fixed).triangles_at, &count, 4);
-  set_crc(fixed);
-  EXPECT_NE(decode(fixed.data(), fixed.size()).status().message().find("implausible counts"),
-            std::string::npos);
+  EXPECT_NE(message_of(fixed).find("implausible counts"), std::string::npos);
   // A compact header's section lengths beyond the stream.
-  const Layout l = layout(bytes);
   std::vector<uint8_t> longer(bytes.begin(), bytes.begin() + l.connectivity_at);
-  longer.insert(longer.end(), {0xff, 0xff, 0x03});  // 65535 bytes
+  ByteWriter(&longer).write_varint(65535);
   longer.insert(longer.end(), bytes.begin() + l.sections, bytes.end());
-  set_crc(longer);
-  EXPECT_NE(decode(longer.data(), longer.size()).status().message().find("section lengths"),
-            std::string::npos);
+  EXPECT_NE(message_of(longer).find("section lengths"), std::string::npos);
   EXPECT_NE(decode(bytes.data(), 10).status().message().find("too short"), std::string::npos);
 }
 

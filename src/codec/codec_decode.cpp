@@ -45,8 +45,7 @@ struct StreamHeader {
   uint8_t version = 0;
   bool has_normals = false;
   uint32_t vertex_count = 0, triangle_count = 0;
-  double origin[3] = {0, 0, 0};
-  double step = 0;
+  QuantizationGrid grid;
   uint64_t lengths[3] = {0, 0, 0};  // connectivity, geometry, normals
   size_t sections = 0;              // where the connectivity section starts
 };
@@ -85,14 +84,17 @@ Status read_header(const uint8_t* data, size_t size, const std::string& source, 
   }
   h->has_normals = (flags & 1) != 0;
   bool ok = true;
-  size_t counts_at = in.offset(), grid_at = 0, lengths_at = 0, normals_at = 0;
-  if (h->version < detail::kCompactHeaderVersion) {
+  size_t counts_at = 0, grid_at = 0, lengths_at = 0, normals_at = 0;
+  double origin[3] = {0, 0, 0};
+  if (h->version < detail::kCompactHeaderVersion) {  // 60 bytes of fixed fields
     uint16_t reserved = 0;
     uint32_t lengths[3];
-    ok = in.read_le(&reserved) && in.read_le(&h->vertex_count) && in.read_le(&h->triangle_count);
+    ok = in.read_le(&reserved);
+    counts_at = in.offset();
+    ok = ok && in.read_le(&h->vertex_count) && in.read_le(&h->triangle_count);
     grid_at = in.offset();
-    for (double& o : h->origin) ok = ok && in.read_le(&o);
-    ok = ok && in.read_le(&h->step);
+    for (double& o : origin) ok = ok && in.read_le(&o);
+    ok = ok && in.read_le(&h->grid.step);
     lengths_at = in.offset();
     for (uint32_t& l : lengths) ok = ok && in.read_le(&l);
     if (!ok) return header_error(ErrorCode::kInvalidData, source, "truncated header", in.offset());
@@ -100,15 +102,15 @@ Status read_header(const uint8_t* data, size_t size, const std::string& source, 
       return header_error(ErrorCode::kUnsupported, source, "unknown flags in the header", 5);
     }
     std::copy(lengths, lengths + 3, h->lengths);
-    counts_at += 2;
     normals_at = lengths_at + 8;
   } else {
     uint64_t vertices = 0, triangles = 0;
-    float origin[3];
+    float compact[3];
+    counts_at = in.offset();
     ok = in.read_varint(&vertices) && in.read_varint(&triangles);
     grid_at = in.offset();
-    for (float& o : origin) ok = ok && in.read_le(&o);
-    ok = ok && in.read_le(&h->step);
+    for (float& o : compact) ok = ok && in.read_le(&o);
+    ok = ok && in.read_le(&h->grid.step);
     lengths_at = in.offset();
     ok = ok && in.read_varint(&h->lengths[0]);
     normals_at = in.offset();
@@ -119,7 +121,7 @@ Status read_header(const uint8_t* data, size_t size, const std::string& source, 
     }
     h->vertex_count = static_cast<uint32_t>(vertices);
     h->triangle_count = static_cast<uint32_t>(triangles);
-    std::copy(origin, origin + 3, h->origin);
+    std::copy(compact, compact + 3, origin);
     // The geometry section is what the other two leave.
     const uint64_t rest = in.remaining();
     if (h->lengths[0] > rest || h->lengths[2] > rest - h->lengths[0]) {
@@ -141,10 +143,13 @@ Status read_header(const uint8_t* data, size_t size, const std::string& source, 
                                  {h->vertex_count, h->triangle_count, size}),
                  at_byte(counts_at));
   }
-  if (!(h->step > 0) || !std::isfinite(h->step) || !std::isfinite(h->origin[0]) ||
-      !std::isfinite(h->origin[1]) || !std::isfinite(h->origin[2])) {
+  const double step = h->grid.step;
+  if (!(step > 0) || !std::isfinite(step) || !std::isfinite(origin[0]) ||
+      !std::isfinite(origin[1]) || !std::isfinite(origin[2])) {
     return header_error(ErrorCode::kInvalidData, source, "invalid quantization grid", grid_at);
   }
+  h->grid.origin = {float(origin[0]), float(origin[1]), float(origin[2])};
+  // Versions 1 to 6 state all three lengths (version 7's geometry length is the rest).
   if (h->lengths[0] + h->lengths[1] + h->lengths[2] != in.remaining()) {
     return header_error(ErrorCode::kInvalidData, source,
                         "section lengths do not add up to the stream's size", lengths_at);
@@ -174,11 +179,8 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
       detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, h.version, source));
   connectivity.newest = detail::NewestTriangles();  // free it before the normals' arrays
   std::vector<uint32_t>& indices = connectivity.indices;
-  QuantizationGrid grid;
-  grid.origin = {float(h.origin[0]), float(h.origin[1]), float(h.origin[2])};
-  grid.step = h.step;
   Mesh mesh;
-  mesh.positions = detail::dequantize(q, grid);
+  mesh.positions = detail::dequantize(q, h.grid);
   mesh.indices = std::move(indices);
   mesh.stored_vertices = vertex_count;
   if (h.has_normals) {
@@ -194,10 +196,7 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
 Result<QuantizationGrid> stream_grid(const uint8_t* data, size_t size, const std::string& source) {
   StreamHeader h;
   OSTEON_RETURN_IF_ERROR(read_header(data, size, source, &h));
-  QuantizationGrid grid;
-  grid.origin = {float(h.origin[0]), float(h.origin[1]), float(h.origin[2])};
-  grid.step = h.step;
-  return grid;
+  return h.grid;
 }
 
 }  // namespace osteon

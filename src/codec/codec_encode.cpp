@@ -109,8 +109,9 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   // The compact header (docs/FORMAT.md): a small mesh's stream is a few hundred bytes, of
   // which version 6's fixed fields took 64 with the checksum.
   std::vector<uint8_t> out;
-  out.reserve(detail::kCompactHeaderBytes + 16 + connectivity.bytes.size() + geometry.size() +
-              normals.size() + detail::kStreamChecksumBytes);
+  out.reserve(detail::kCompactHeaderBytes + 16 /* the varints' further bytes */ +
+              connectivity.bytes.size() + geometry.size() + normals.size() +
+              detail::kStreamChecksumBytes);
   ByteWriter writer(&out);
   writer.write_bytes(detail::kStreamMagic, 4);
   writer.write_le<uint8_t>(detail::kStreamVersion);

@@ -19,9 +19,8 @@ constexpr uint8_t kStreamMagic[4] = {'O', 'S', 'T', 'M'};
 /// version 7 the compact header).
 constexpr uint8_t kStreamVersion = 7;  // osteon::kStreamVersion (codec_encode.cpp checks)
 constexpr uint8_t kOldestStreamVersion = 1;
-/// Up to version 6 the header has fixed fields: 60 bytes.
-constexpr size_t kFixedHeaderBytes = 4 + 1 + 1 + 2 + 4 + 4 + 4 * 8 + 3 * 4;
-/// From version 7, varint counts and lengths and a float origin: at least 29 bytes.
+/// Up to version 6 the header has fixed fields (60 bytes); from version 7, varint counts and
+/// lengths and a float origin: at least 29 bytes.
 constexpr uint8_t kCompactHeaderVersion = 7;
 constexpr size_t kCompactHeaderBytes = 4 + 1 + 1 + 1 + 1 + 3 * 4 + 8 + 1;
 constexpr size_t kStreamChecksumBytes = 4;

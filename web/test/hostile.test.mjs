@@ -22,22 +22,13 @@ import { launchBrowser, missingPrerequisite, observeLongTasks, openViewer, osteo
 import { kStallMs } from '../viewer/stream.mjs';
 import { kMaxEntries } from '../viewer/manifest.mjs';
 import { kMaxManifestBytes } from '../viewer/boot.js';
+import { withCounts } from './ostm_bytes.mjs';
 
 const skip = missingPrerequisite();
 if (skip) console.log(`# hostile package tests skipped: ${skip}`);
 const kDesktop = { viewport: { width: 1000, height: 700 }, deviceScaleFactor: 1 };
 const kBlockedMs = 1000;
 const kTypes = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.css': 'text/css', '.json': 'application/json', '.wasm': 'application/wasm' };
-
-/// CRC-32 (IEEE, reflected), the stream's checksum (docs/FORMAT.md "Mesh stream").
-function crc32(bytes) {
-  let crc = ~0;
-  for (const b of bytes) {
-    crc ^= b;
-    for (let k = 0; k < 8; ++k) crc = crc & 1 ? (crc >>> 1) ^ 0xedb88320 : crc >>> 1;
-  }
-  return ~crc >>> 0;
-}
 
 /// A static server for `root`, where `special(pathname, req, res)` may answer a request itself.
 function staticServer(root, special) {
@@ -197,24 +188,8 @@ describe('the viewer survives hostile packages', { skip: skip ?? false }, () => 
     const file = path.join(dir, manifest.chunks[c.chunk].file);
     const chunk = readFileSync(file);
     const stream = chunk.subarray(c.offset, c.offset + c.bytes);
-    // The header's two count varints (docs/FORMAT.md, after the flags byte) rewritten, the stream
-    // kept at its length: what the longer varints add comes off the end of the geometry section,
-    // which the decoder never reaches.
-    const varint = (value) => {
-      const out = [];
-      for (; value >= 0x80; value = Math.floor(value / 0x80)) out.push((value % 0x80) | 0x80);
-      return [...out, value];
-    };
-    const skipVarint = (at) => {
-      while (stream[at] & 0x80) at++;
-      return at + 1;
-    };
-    const counts = [...varint(0x20000000), ...varint(0x3fffffff)];  // triangles: 12.9 GB of indices
-    const after = skipVarint(skipVarint(6));
-    const rest = stream.slice(after, stream.length - 4 - (counts.length - (after - 6)));
-    stream.set([...counts, ...rest], 6);
-    const view = new DataView(stream.buffer, stream.byteOffset, stream.length);
-    view.setUint32(stream.length - 4, crc32(stream.subarray(0, stream.length - 4)), true);
+    // Kept at its length: the longer count varints' bytes come off the geometry section's end.
+    stream.set(withCounts(stream, 0x20000000, 0x3fffffff, { keepLength: true }));  // 12.9 GB of indices
     writeFileSync(file, chunk);
     const { state, longest, context } = await load('huge');
     assert.equal(state.componentsFailed, 1, state.errors.join('\n'));

@@ -21,6 +21,8 @@ import { fileURLToPath, pathToFileURL } from 'node:url';
 import { Worker } from 'node:worker_threads';
 import { gzipSync } from 'node:zlib';
 
+import { headerCounts, withChecksum, withCounts } from '../../test/ostm_bytes.mjs';
+
 const here = path.dirname(fileURLToPath(import.meta.url));
 const repo = path.resolve(here, '..', '..', '..');
 const wasmDir = path.resolve(process.env.OSTEON_WASM_DIR ?? path.join(repo, 'build', 'wasm'));
@@ -112,21 +114,6 @@ function assertSameMesh(wasm, native, what) {
     worst = Math.max(worst, Math.abs(wasm.normals[i] - native.normals[i]));
   }
   assert.ok(worst <= 1e-6, `${what}: normals differ by ${worst}`);
-}
-
-/// CRC-32 (IEEE), as the stream's trailer stores it: to corrupt a stream behind its checksum.
-function crc32(bytes) {
-  let crc = ~0;
-  for (const byte of bytes) {
-    crc ^= byte;
-    for (let k = 0; k < 8; ++k) crc = crc & 1 ? (crc >>> 1) ^ 0xedb88320 : crc >>> 1;
-  }
-  return ~crc >>> 0;
-}
-function withChecksum(bytes) {
-  new DataView(bytes.buffer, bytes.byteOffset).setUint32(bytes.length - 4,
-    crc32(bytes.subarray(0, bytes.length - 4)), true);
-  return bytes;
 }
 
 function assertOsteonError(fn, pattern, what) {
@@ -304,36 +291,20 @@ describe('bad input', () => {
     const fresh = await wrapper.createDecoder();
     fresh.decode(good);
     const settled = fresh.memoryBytes();
-    const varint = (value) => {
-      const out = [];
-      for (; value >= 0x80; value = Math.floor(value / 0x80)) out.push((value % 0x80) | 0x80);
-      out.push(value);
-      return out;
-    };
-    const skipVarint = (bytes, at) => {
-      while (bytes[at] & 0x80) at++;
-      return at + 1;
-    };
-    const countsEnd = skipVarint(good, skipVarint(good, 6));
-    const withCounts = (vertices, triangles) => withChecksum(Uint8Array.from([
-      ...good.subarray(0, 6), ...varint(vertices), ...varint(triangles), ...good.subarray(countsEnd)]));
+    const withCountsOf = (vertices, triangles) => withCounts(good, vertices, triangles);
     // One triangle more than 1024 a byte of the stream that declares it (whose varints grow with
     // the count).
     let over = 1024 * good.length + 1;
-    while (withCounts(3 * over, over).length * 1024 >= over) over = 1024 * withCounts(3 * over, over).length + 1;
+    while (withCountsOf(3 * over, over).length * 1024 >= over) over = 1024 * withCountsOf(3 * over, over).length + 1;
     for (const [vertices, triangles] of [[0x20000000, 0x3fffffff], [0xffffffff, 0xffffffff], [3 * over, over], [0x10000000, 0x10000000 - 1]]) {
-      const bytes = withCounts(vertices, triangles);
+      const bytes = withCountsOf(vertices, triangles);
       assertOsteonError(() => fresh.decode(bytes, 'huge.ostm'),
         new RegExp(`^osteon: huge\\.ostm: implausible counts: ${vertices} vertices, ${triangles} triangles in ${bytes.length} bytes`),
         `${triangles} triangles`);
     }
     // More vertices than three a triangle.
-    let triangles = 0;
-    for (let at = skipVarint(good, 6), shift = 1; ; at++, shift *= 0x80) {
-      triangles += (good[at] & 0x7f) * shift;
-      if (!(good[at] & 0x80)) break;
-    }
-    assertOsteonError(() => fresh.decode(withCounts(3 * triangles + 1, triangles), 'huge.ostm'), /implausible counts/, 'vertices');
+    const { triangles } = headerCounts(good);
+    assertOsteonError(() => fresh.decode(withCountsOf(3 * triangles + 1, triangles), 'huge.ostm'), /implausible counts/, 'vertices');
     assert.equal(fresh.memoryBytes(), settled, 'no memory grew for the refused streams');
   });
 
