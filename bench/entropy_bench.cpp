@@ -25,13 +25,14 @@ using osteon::detail::SymbolEncoder;
 /// CPU time: init, `decode_all(decoder)` reading every symbol, finish. Aborts on a decoding error.
 template <class DecodeAll>
 double best_decode(const std::vector<uint8_t>& bytes, uint32_t alphabet, uint32_t contexts,
-                   const char* section, DecodeAll&& decode_all) {
+                   uint64_t symbols, const char* section, DecodeAll&& decode_all) {
   double best = 1e9;
   for (int run = 0; run < 15; ++run) {
     const double t0 = osteon_bench::thread_seconds();
     ByteReader in(bytes.data(), bytes.size());
     SymbolDecoder dec;
-    if (!dec.init(in, alphabet, contexts, "bench", section).ok()) std::abort();
+    const osteon::detail::SectionLayout layout{osteon::detail::kCompactSectionVersion, symbols};
+    if (!dec.init(in, alphabet, contexts, layout, "bench", section).ok()) std::abort();
     decode_all(dec);
     if (!dec.finish("bench", section).ok()) std::abort();
     best = std::min(best, osteon_bench::thread_seconds() - t0);
@@ -84,7 +85,7 @@ void connectivity_like(size_t n) {
   const double encode_s = osteon_bench::thread_seconds() - t_enc;
 
   uint64_t check = 0;
-  const double best = best_decode(bytes, 5, 5, "connectivity", [&](SymbolDecoder& dec) {
+  const double best = best_decode(bytes, 5, 5, n, "connectivity", [&](SymbolDecoder& dec) {
     uint32_t context = 0;
     for (size_t i = 0; i < n; ++i) {
       context = dec.get(context);
@@ -121,7 +122,7 @@ void geometry_like(size_t n) {
   std::vector<uint8_t> bytes;
   enc.append_to(&bytes);
   uint64_t check = 0;
-  const double best = best_decode(bytes, 24, 6, "geometry", [&](SymbolDecoder& dec) {
+  const double best = best_decode(bytes, 24, 6, n, "geometry", [&](SymbolDecoder& dec) {
     uint32_t ctx = 0;
     for (size_t i = 0; i < n; ++i) {
       const uint32_t bucket = dec.get(ctx);

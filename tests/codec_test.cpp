@@ -149,7 +149,11 @@ TEST(Codec, BitsAndPrecisionSetTheGridStep) {
     options.bits = bits;
     EncodeReport report;
     ASSERT_TRUE(encode(sphere, options, &report).ok());
-    EXPECT_NEAR(report.grid_step, 100.0 / double((1u << bits) - 1), 1e-3 * report.grid_step);
+    // The step, rounded down to a float (which the header stores in 4 bytes).
+    const double step = 100.0 / double((1u << bits) - 1);
+    EXPECT_NEAR(report.grid_step, step, 1e-3 * report.grid_step);
+    EXPECT_LE(report.grid_step, step);
+    EXPECT_EQ(report.grid_step, double(float(report.grid_step)));
     EXPECT_LE(report.max_error, report.grid_step / 2 + 1e-5);
     expect_round_trip(sphere, options);
   }
@@ -157,8 +161,15 @@ TEST(Codec, BitsAndPrecisionSetTheGridStep) {
   precise.precision = 0.05;
   EncodeReport report;
   ASSERT_TRUE(encode(sphere, precise, &report).ok());
-  EXPECT_DOUBLE_EQ(report.grid_step, 0.1);
+  // 0.1 rounded down to a float: every coordinate still within 0.05.
+  EXPECT_EQ(report.grid_step, double(std::nextafter(0.1f, 0.0f)));
   EXPECT_LE(report.max_error, 0.05 + 1e-5);
+  Result<std::vector<uint8_t>> bytes = encode(sphere, precise);
+  ASSERT_TRUE(bytes.ok());
+  EXPECT_EQ((*bytes)[5], 2) << "flags: the step stored as a float";
+  Result<QuantizationGrid> grid = stream_grid(bytes->data(), bytes->size());
+  ASSERT_TRUE(grid.ok());
+  EXPECT_EQ(grid->step, report.grid_step);
 }
 
 TEST(Codec, SharedGridMakesPartsMeetWithoutCracks) {
@@ -228,7 +239,7 @@ Layout layout(const std::vector<uint8_t>& bytes) {
   l.triangles_at = in.offset();
   in.read_varint(&count);
   l.grid_at = in.offset();
-  in.skip(3 * 4 + 8);
+  in.skip(3 * 4 + ((bytes[5] & 2) != 0 ? 4 : 8));  // the origin, and the step (version 8: a float)
   l.connectivity_at = in.offset();
   in.read_varint(&l.connectivity);
   if ((bytes[5] & 1) != 0) in.read_varint(&count);  // the normals section's length
@@ -559,7 +570,7 @@ struct OlderVersion {
   uint8_t version;
   size_t goldens;
 };
-constexpr OlderVersion kOlderVersions[] = {{1, 4}, {2, 5}, {3, 7}, {4, 8}, {5, 8}, {6, 8}};
+constexpr OlderVersion kOlderVersions[] = {{1, 4}, {2, 5}, {3, 7}, {4, 8}, {5, 8}, {6, 8}, {7, 8}};
 
 // "pelvis_b14.ostm" for version 1, "pelvis_b14_v6.ostm" for version 6.
 std::string golden_file(const Golden& g, int version) {
@@ -645,37 +656,57 @@ TEST(CodecGolden, EncoderReproducesAndDecoderReadsTheFrozenStreams) {
   }
 }
 
-// The decoder keeps reading versions 1 to 6, to the very mesh the current stream of the same
-// part decodes to (the versions share the grid; they differ in how they predict and code it).
+// The decoder keeps reading versions 1 to 7, to the very mesh the version-7 golden of the same
+// part decodes to (versions 1 to 7 share the grid; they differ in how they predict and code it).
+// Version 8 rounds the codec's own step down to a float: the same triangles, every position
+// within one step of version 7's.
 TEST(CodecGolden, DecoderStillReadsOlderVersions) {
   Phantom phantom = make_phantom({.seed = 1, .detail = 1});
+  auto decoded_golden = [](const Golden& g, int version) {
+    const std::string path = golden_dir() + "/" + golden_file(g, version);
+    std::vector<uint8_t> frozen = test::read_bytes(path);
+    EXPECT_GT(frozen.size(), 4u) << path;
+    if (frozen.size() > 4) {
+      EXPECT_EQ(frozen[4], version) << path;
+    }
+    Result<Mesh> mesh = decode(frozen.data(), frozen.size(), path);
+    EXPECT_TRUE(mesh.ok()) << path << ": " << mesh.status().message();
+    return mesh.ok() ? mesh.value() : Mesh();
+  };
   size_t files = 0;
   for (const OlderVersion& older : kOlderVersions) {
     for (size_t i = 0; i < older.goldens; ++i) {
       const Golden& g = kGoldens[i];
-      const std::string path = golden_dir() + "/" + golden_file(g, older.version);
-      SCOPED_TRACE(path);
-      const Mesh* part = golden_mesh(phantom, g);
-      ASSERT_NE(part, nullptr);
-      std::vector<uint8_t> frozen = test::read_bytes(path);
-      ASSERT_GT(frozen.size(), 4u);
-      EXPECT_EQ(frozen[4], older.version);
-      Result<Mesh> old_decoded = decode(frozen.data(), frozen.size(), path);
-      ASSERT_TRUE(old_decoded.ok()) << old_decoded.status().message();
-      EncodeOptions options;
-      options.bits = g.bits;
-      options.normals = g.normals;
-      Result<std::vector<uint8_t>> bytes = encode(*part, options);
-      ASSERT_TRUE(bytes.ok()) << bytes.status().message();
-      Result<Mesh> new_decoded = decode(bytes->data(), bytes->size());
-      ASSERT_TRUE(new_decoded.ok()) << new_decoded.status().message();
-      EXPECT_EQ(old_decoded->indices, new_decoded->indices);
-      EXPECT_EQ(old_decoded->positions, new_decoded->positions);
-      EXPECT_EQ(old_decoded->normals, new_decoded->normals);
+      SCOPED_TRACE(golden_file(g, older.version));
+      const Mesh old_decoded = decoded_golden(g, older.version);
+      const Mesh v7 = decoded_golden(g, 7);
+      EXPECT_EQ(old_decoded.indices, v7.indices);
+      EXPECT_EQ(old_decoded.positions, v7.positions);
+      EXPECT_EQ(old_decoded.normals, v7.normals);
       ++files;
     }
   }
-  EXPECT_EQ(files, 40u) << "every older golden file";
+  EXPECT_EQ(files, 48u) << "every older golden file";
+  for (const Golden& g : kGoldens) {
+    SCOPED_TRACE(g.name);
+    const Mesh v7 = decoded_golden(g, 7);
+    const Mesh v8 = decoded_golden(g, 8);
+    const Mesh* part = golden_mesh(phantom, g);
+    ASSERT_NE(part, nullptr);
+    EncodeReport report;
+    EncodeOptions options;
+    options.bits = g.bits;
+    ASSERT_TRUE(encode(*part, options, &report).ok());
+    EXPECT_EQ(v8.indices, v7.indices);
+    ASSERT_EQ(v8.positions.size(), v7.positions.size());
+    double furthest = 0;
+    for (size_t v = 0; v < v8.positions.size(); ++v) {
+      furthest = std::max({furthest, std::fabs(double(v8.positions[v].x) - v7.positions[v].x),
+                           std::fabs(double(v8.positions[v].y) - v7.positions[v].y),
+                           std::fabs(double(v8.positions[v].z) - v7.positions[v].z)});
+    }
+    EXPECT_LE(furthest, report.grid_step * 1.001);
+  }
 }
 
 // Version 7 changed the header alone: each golden stream's sections are version 6's byte for

@@ -13,8 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "core/byte_io.hpp"
+#include "codec/codec_internal.hpp"
 #include "codec/connectivity.hpp"
+#include "core/byte_io.hpp"
 #include "fixtures.hpp"
 #include "osteon/io.hpp"
 #include "osteon/mesh.hpp"
@@ -124,7 +125,8 @@ RoundTrip round_trip(const std::vector<uint32_t>& indices, uint32_t vertex_count
   const uint32_t triangles = static_cast<uint32_t>(indices.size() / 3);
   ByteReader reader(enc->bytes.data(), enc->bytes.size());
   auto start = std::chrono::steady_clock::now();
-  Result<DecodedConnectivity> decoded = decode_connectivity(reader, vertex_count, triangles, name);
+  Result<DecodedConnectivity> decoded =
+      decode_connectivity(reader, vertex_count, triangles, kStreamVersion, name);
   result.decode_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!decoded.ok()) {
@@ -262,7 +264,7 @@ TEST(Edgebreaker, EmptyMesh) {
   Result<ConnectivityEncoding> enc = encode_connectivity({}, 0);
   ASSERT_TRUE(enc.ok()) << enc.status().message();
   ByteReader reader(enc->bytes.data(), enc->bytes.size());
-  Result<DecodedConnectivity> dec = decode_connectivity(reader, 0, 0, "empty");
+  Result<DecodedConnectivity> dec = decode_connectivity(reader, 0, 0, kStreamVersion, "empty");
   ASSERT_TRUE(dec.ok()) << dec.status().message();
   EXPECT_TRUE(dec->indices.empty());
   EXPECT_TRUE(dec->newest.entries.empty());
@@ -382,7 +384,7 @@ void expect_valid_or_error(const std::vector<uint8_t>& bytes, uint32_t vertex_co
                            uint32_t triangle_count) {
   ByteReader reader(bytes.data(), bytes.size());
   Result<DecodedConnectivity> decoded =
-      decode_connectivity(reader, vertex_count, triangle_count, "flip");
+      decode_connectivity(reader, vertex_count, triangle_count, kStreamVersion, "flip");
   if (!decoded.ok()) {
     EXPECT_NE(decoded.status().message().find("flip"), std::string::npos)
         << decoded.status().message();
@@ -441,7 +443,8 @@ TEST(Edgebreaker, EveryTruncationIsAnError) {
   for (size_t size = 0; size < enc->bytes.size(); ++size) {
     std::vector<uint8_t> cut(enc->bytes.begin(), enc->bytes.begin() + size);
     ByteReader reader(cut.data(), cut.size());
-    Result<DecodedConnectivity> dec = decode_connectivity(reader, v, t, "cut.osteon");
+    Result<DecodedConnectivity> dec =
+        decode_connectivity(reader, v, t, kStreamVersion, "cut.osteon");
     ASSERT_FALSE(dec.ok()) << "a stream cut to " << size << " bytes decoded";
     EXPECT_NE(dec.status().message().find("cut.osteon"), std::string::npos);
   }
@@ -474,18 +477,42 @@ TEST(Edgebreaker, RandomBytesNeverCrash) {
 
 TEST(Edgebreaker, HugeDeclaredCountsAreRejected) {
   // 4,000,000 symbols declared for 1,000 triangles; then counts that pass the first bounds but not
-  // the bytes that remain.
-  std::vector<uint8_t> bytes = {0x80, 0x92, 0xf4, 0x01, 1, 3};
-  ByteReader r1(bytes.data(), bytes.size());
-  Result<DecodedConnectivity> dec = decode_connectivity(r1, 500, 1000, "huge");
-  ASSERT_FALSE(dec.ok());
-  EXPECT_NE(dec.status().message().find("symbols"), std::string::npos) << dec.status().message();
-  bytes = {0x9f, 0x1f, 1, 0xf8, 0x55, 0xff, 0xff, 0x03};  // 3999 symbols, 1 component, 11000 ids
-  ByteReader r2(bytes.data(), bytes.size());
-  dec = decode_connectivity(r2, 500, 1000, "huge");
-  ASSERT_FALSE(dec.ok());
-  EXPECT_NE(dec.status().message().find("split events"), std::string::npos)
-      << dec.status().message();
+  // the bytes that remain. Version 7's layout, then version 8's (a head byte saying that the
+  // component count and the split events follow; the vertex ids beyond the 500 vertices).
+  for (const uint8_t version : {uint8_t{7}, uint8_t{8}}) {
+    SCOPED_TRACE(int(version));
+    const std::vector<uint8_t> head =
+        version == 7 ? std::vector<uint8_t>{} : std::vector<uint8_t>{0x48};
+    std::vector<uint8_t> bytes = head;
+    bytes.insert(bytes.end(), {0x80, 0x92, 0xf4, 0x01, 1, 3});
+    ByteReader r1(bytes.data(), bytes.size());
+    Result<DecodedConnectivity> dec = decode_connectivity(r1, 500, 1000, version, "huge");
+    ASSERT_FALSE(dec.ok());
+    EXPECT_NE(dec.status().message().find("symbols"), std::string::npos) << dec.status().message();
+    // 3999 symbols, 1 component, 11000 ids (version 8: 10500 beyond the vertices)
+    bytes = head;
+    bytes.insert(bytes.end(), {0x9f, 0x1f, 1});
+    if (version == 7) {
+      bytes.insert(bytes.end(), {0xf8, 0x55});
+    } else {
+      bytes.insert(bytes.end(), {0x84, 0x52});
+    }
+    bytes.insert(bytes.end(), {0xff, 0xff, 0x03});
+    ByteReader r2(bytes.data(), bytes.size());
+    dec = decode_connectivity(r2, 500, 1000, version, "huge");
+    ASSERT_FALSE(dec.ok());
+    EXPECT_NE(dec.status().message().find("split events"), std::string::npos)
+        << dec.status().message();
+  }
+  // Version 8: an unknown head byte (bit 7, or context model 6).
+  for (const uint8_t head : {uint8_t{0x80}, uint8_t{6}}) {
+    const std::vector<uint8_t> bytes = {head, 10, 0};
+    ByteReader in(bytes.data(), bytes.size());
+    Result<DecodedConnectivity> dec = decode_connectivity(in, 5, 10, 8, "head");
+    ASSERT_FALSE(dec.ok());
+    EXPECT_NE(dec.status().message().find("unknown head byte"), std::string::npos)
+        << dec.status().message();
+  }
 }
 
 // ---- real meshes -------------------------------------------------------------------------------

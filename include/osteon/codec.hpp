@@ -18,7 +18,7 @@ namespace osteon {
 /// The .ostm stream version encode() writes; decode() reads versions 1 to this one
 /// (docs/FORMAT.md). A package's manifest records it, so a reader can refuse newer streams up
 /// front.
-inline constexpr int kStreamVersion = 7;
+inline constexpr int kStreamVersion = 8;
 
 /// A quantization grid: position p is stored as round((p - origin) / step) per axis. Several
 /// parts encoded with the same grid meet without cracks where their vertices coincide.
@@ -34,10 +34,11 @@ struct QuantizationGrid {
 
 struct EncodeOptions {
   /// Grid step = largest bounding-box side / (2^bits - 1); 8..24. Ignored when precision > 0 or
-  /// a grid is given.
+  /// a grid is given. (Off a voxel lattice, a step the codec chooses is rounded down to a float,
+  /// which the stream stores in 4 bytes: a step no larger, so every bound still holds.)
   int bits = 14;
-  /// > 0: the largest position error allowed, in mesh units (step = 2 * precision, so every
-  /// coordinate is within precision of the input).
+  /// > 0: the largest position error allowed, in mesh units (step = 2 * precision, rounded down
+  /// to a float, so every coordinate is within precision of the input).
   double precision = 0;
   /// When set (step > 0), use this grid instead of one derived from the mesh (shared grids).
   QuantizationGrid grid;

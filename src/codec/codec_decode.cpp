@@ -24,6 +24,7 @@ std::vector<Vec3> compute_vertex_normals(const Mesh& mesh) {
     const Vec3 &p = mesh.positions[a], &q = mesh.positions[b], &r = mesh.positions[c];
     // The cross product's length is twice the area: summing it weights by area.
     const Vec3 n = cross(q - p, r - p);
+    OSTEON_UNROLL
     for (uint32_t v : {a, b, c}) {
       normals[v].x += n.x;
       normals[v].y += n.y;
@@ -56,7 +57,9 @@ Status header_error(ErrorCode code, const std::string& source, const char* what,
 
 /// Reads and checks the header of the stream `data` (`size` bytes, its checksum included; the
 /// checksum itself is not checked here): magic, version, flags, counts, grid, section lengths.
-Status read_header(const uint8_t* data, size_t size, const std::string& source, StreamHeader* h) {
+OSTEON_NOINLINE OSTEON_COLD_FUNCTION Status read_header(const uint8_t* data, size_t size,
+                                                        const std::string& source,
+                                                        StreamHeader* h) {
   if (size < detail::kCompactHeaderBytes + detail::kStreamChecksumBytes) {
     return error(
         ErrorCode::kInvalidData, source,
@@ -79,10 +82,11 @@ Status read_header(const uint8_t* data, size_t size, const std::string& source, 
   in.skip(5);
   uint8_t flags = 0;
   in.read_le(&flags);
-  if ((flags & ~1) != 0) {
+  const uint8_t known = detail::kFlagNormals | (h->version >= 8 ? detail::kFlagFloatStep : 0);
+  if ((flags & ~known) != 0) {
     return header_error(ErrorCode::kUnsupported, source, "unknown flags in the header", 5);
   }
-  h->has_normals = (flags & 1) != 0;
+  h->has_normals = (flags & detail::kFlagNormals) != 0;
   bool ok = true;
   size_t counts_at = 0, grid_at = 0, lengths_at = 0, normals_at = 0;
   double origin[3] = {0, 0, 0};
@@ -110,7 +114,15 @@ Status read_header(const uint8_t* data, size_t size, const std::string& source, 
     ok = in.read_varint(&vertices) && in.read_varint(&triangles);
     grid_at = in.offset();
     for (float& o : compact) ok = ok && in.read_le(&o);
-    ok = ok && in.read_le(&h->grid.step);
+    uint32_t float_step = 0;  // flags bit 1: the step as a float
+    if ((flags & detail::kFlagFloatStep) != 0) {
+      ok = ok && in.read_le(&float_step);
+      float step = 0;
+      std::memcpy(&step, &float_step, sizeof step);
+      h->grid.step = step;
+    } else {
+      ok = ok && in.read_le(&h->grid.step);
+    }
     lengths_at = in.offset();
     ok = ok && in.read_varint(&h->lengths[0]);
     normals_at = in.offset();
@@ -170,13 +182,14 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   const size_t base = h.sections;
   const uint32_t vertex_count = h.vertex_count;
   ByteReader connectivity_in(data + base, h.lengths[0]);
-  OSTEON_ASSIGN_OR_RETURN(
-      detail::DecodedConnectivity connectivity,
-      detail::decode_connectivity(connectivity_in, vertex_count, h.triangle_count, source));
+  OSTEON_ASSIGN_OR_RETURN(detail::DecodedConnectivity connectivity,
+                          detail::decode_connectivity(connectivity_in, vertex_count,
+                                                      h.triangle_count, h.version, source));
   ByteReader geometry_in(data + base + h.lengths[0], h.lengths[1]);
-  OSTEON_ASSIGN_OR_RETURN(
-      detail::QuantizedPositions q,
-      detail::decode_geometry(geometry_in, connectivity.newest, vertex_count, h.version, source));
+  uint32_t chain = connectivity.last_state;  // version 8: one chain of rANS states
+  OSTEON_ASSIGN_OR_RETURN(detail::QuantizedPositions q,
+                          detail::decode_geometry(geometry_in, connectivity.newest, vertex_count,
+                                                  h.version, source, &chain, h.has_normals));
   connectivity.newest = detail::NewestTriangles();  // free it before the normals' arrays
   std::vector<uint32_t>& indices = connectivity.indices;
   Mesh mesh;
@@ -185,8 +198,8 @@ Result<Mesh> decode(const uint8_t* data, size_t size, const std::string& source)
   mesh.stored_vertices = vertex_count;
   if (h.has_normals) {
     ByteReader normals_in(data + base + h.lengths[0] + h.lengths[1], h.lengths[2]);
-    OSTEON_ASSIGN_OR_RETURN(mesh.normals,
-                            detail::decode_normals(normals_in, mesh.indices, q, source));
+    OSTEON_ASSIGN_OR_RETURN(mesh.normals, detail::decode_normals(normals_in, mesh.indices, q,
+                                                                 h.version, source, chain));
   } else {
     mesh.normals = compute_vertex_normals(mesh);
   }

@@ -90,10 +90,10 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     uint32_t v = connectivity.vertex_order[d];
     for (int k = 0; k < 3; ++k) ordered.xyz[3 * size_t{d} + k] = q.xyz[3 * size_t{v} + k];
   }
-  std::vector<uint8_t> geometry;
-  const detail::GeometryChoice chosen =
-      detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry);
+  // The sections' rANS states form one chain (docs/FORMAT.md, "Symbol section"), written from the
+  // last section to the first: each starts its state 0 where the next one's begins.
   std::vector<uint8_t> normals;
+  uint32_t chain = detail::kRansLow;
   if (options.normals) {
     const bool given = mesh.normals.size() == mesh.positions.size();
     const std::vector<Vec3> computed = given ? std::vector<Vec3>() : compute_vertex_normals(mesh);
@@ -102,8 +102,15 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     for (uint32_t d = 0; d < vertex_count; ++d) {
       ordered_normals[d] = vertex_normals[connectivity.vertex_order[d]];
     }
-    detail::encode_normals(connectivity.decoded_indices, ordered, ordered_normals,
-                           options.normal_bits, &normals);
+    chain = detail::encode_normals(connectivity.decoded_indices, ordered, ordered_normals,
+                                   options.normal_bits, &normals);
+  }
+  std::vector<uint8_t> geometry;
+  const detail::GeometryChoice chosen =
+      detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry, chain);
+  if (connectivity.symbols.has_value()) {
+    connectivity.bytes.resize(connectivity.symbols_at);
+    connectivity.symbols->append_to(&connectivity.bytes, chosen.first_state);
   }
 
   // The compact header (docs/FORMAT.md): a small mesh's stream is a few hundred bytes, of
@@ -115,13 +122,20 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   ByteWriter writer(&out);
   writer.write_bytes(detail::kStreamMagic, 4);
   writer.write_le<uint8_t>(detail::kStreamVersion);
-  writer.write_le<uint8_t>(normals.empty() ? 0 : 1);  // flags: bit 0 = normals section present
+  // A step that is a float (choose_grid makes it one when it picks the grid) is stored as one.
+  const bool float_step = double(float(grid.step)) == grid.step;
+  writer.write_le<uint8_t>((normals.empty() ? 0 : detail::kFlagNormals) |
+                           (float_step ? detail::kFlagFloatStep : 0));
   writer.write_varint(vertex_count);
   writer.write_varint(mesh.triangle_count());
   writer.write_le<float>(grid.origin.x);  // the grid's origin is a float: exact
   writer.write_le<float>(grid.origin.y);
   writer.write_le<float>(grid.origin.z);
-  writer.write_le<double>(grid.step);
+  if (float_step) {
+    writer.write_le<float>(float(grid.step));
+  } else {
+    writer.write_le<double>(grid.step);
+  }
   writer.write_varint(connectivity.bytes.size());
   if (!normals.empty()) writer.write_varint(normals.size());
   writer.write_bytes(connectivity.bytes.data(), connectivity.bytes.size());

@@ -16,13 +16,17 @@ namespace osteon::detail {
 constexpr uint8_t kStreamMagic[4] = {'O', 'S', 'T', 'M'};
 /// The version the encoder writes; the decoder reads kOldestStreamVersion..kStreamVersion
 /// (version 2 added lattice coding to the geometry section, version 3 tangent-plane prediction;
-/// version 7 the compact header).
-constexpr uint8_t kStreamVersion = 7;  // osteon::kStreamVersion (codec_encode.cpp checks)
+/// version 7 the compact header, version 8 compact symbol sections and a float step).
+constexpr uint8_t kStreamVersion = 8;  // osteon::kStreamVersion (codec_encode.cpp checks)
 constexpr uint8_t kOldestStreamVersion = 1;
 /// Up to version 6 the header has fixed fields (60 bytes); from version 7, varint counts and
-/// lengths and a float origin: at least 29 bytes.
+/// lengths and a float origin: at least 29 bytes, 25 where version 8 stores the step as a float.
 constexpr uint8_t kCompactHeaderVersion = 7;
-constexpr size_t kCompactHeaderBytes = 4 + 1 + 1 + 1 + 1 + 3 * 4 + 8 + 1;
+constexpr size_t kCompactHeaderBytes = 4 + 1 + 1 + 1 + 1 + 3 * 4 + 4 + 1;
+/// Header flags: a normals section follows the geometry; (version 8) the step is stored as an
+/// f32, which it equals exactly.
+constexpr uint8_t kFlagNormals = 1;
+constexpr uint8_t kFlagFloatStep = 2;
 constexpr size_t kStreamChecksumBytes = 4;
 /// A stream may describe at most this many triangles per byte of its own size: far above what
 /// any real mesh reaches (a few bits per triangle), and it bounds what hostile bytes can allocate.

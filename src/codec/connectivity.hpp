@@ -2,9 +2,11 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "codec/entropy.hpp"
 #include "core/byte_io.hpp"
 #include "osteon/status.hpp"
 
@@ -48,11 +50,17 @@ struct DecodedConnectivity {
   /// 3 per triangle, decoded vertex ids 0..V-1.
   std::vector<uint32_t> indices;
   NewestTriangles newest;
+  /// Version 8: the symbol section's last rANS state, where the geometry's starts.
+  uint32_t last_state = kRansLow;
 };
 
 struct ConnectivityEncoding {
-  /// The connectivity section (layout in docs/FORMAT.md).
+  /// The connectivity section (layout in docs/FORMAT.md), its symbol section ending at kRansLow.
   std::vector<uint8_t> bytes;
+  /// Where its symbol section begins in `bytes`, and its symbols: encode() writes the symbol
+  /// section again, chained to the geometry's (SymbolEncoder::append_to). Empty without symbols.
+  size_t symbols_at = 0;
+  std::optional<SymbolEncoder> symbols;
   /// The triangles exactly as decode_connectivity will return them (same order, same corner
   /// rotation), in decoded vertex ids, and their newest triangles as it returns them.
   std::vector<uint32_t> decoded_indices;
@@ -67,7 +75,8 @@ struct ConnectivityEncoding {
 Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& indices,
                                                  uint32_t vertex_count);
 
-/// Decodes a connectivity section. `vertex_count` and `triangle_count` come from the stream's
+/// Decodes a connectivity section of stream `version` (1 to 8; its symbol section's layout
+/// changed in version 8). `vertex_count` and `triangle_count` come from the stream's
 /// header (already checked against the stream's size); the result has exactly triangle_count
 /// triangles over exactly vertex_count vertices, numbered as the encoder's vertex_order says, and
 /// `newest` is consistent with them (every vertex in it < vertex_count, or kNoVertexId where the
@@ -75,6 +84,7 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
 /// Errors name `source` and the byte offset; hostile input never crashes, hangs or allocates
 /// beyond O(vertex_count + triangle_count).
 Result<DecodedConnectivity> decode_connectivity(ByteReader& in, uint32_t vertex_count,
-                                                uint32_t triangle_count, const std::string& source);
+                                                uint32_t triangle_count, uint8_t version,
+                                                const std::string& source);
 
 }  // namespace osteon::detail

@@ -395,6 +395,7 @@ OSTEON_NOINLINE bool uncut(const SpiraleReversi& core, const std::vector<uint32_
   for (uint32_t f = 0; f < faces; ++f) {
 #if defined(__GNUC__)
     if (f + kAhead < faces && !has_dummies) {
+      OSTEON_UNROLL
       for (uint32_t k = 0; k < 3; ++k) {
         const uint32_t ahead = opposite[3 * (f + kAhead) + k].value;
         if (ahead < corners) __builtin_prefetch(indices + ahead);
@@ -471,6 +472,7 @@ OSTEON_NOINLINE OSTEON_FLATTEN bool decode_symbols(SpiraleReversi& core, SymbolD
 OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader& in,
                                                                      uint32_t vertex_count,
                                                                      uint32_t triangle_count,
+                                                                     uint8_t version,
                                                                      const std::string& source) {
   size_t at = in.offset();
   // "connectivity: " + first + second, by appends (fewer functions in the decoder's download).
@@ -491,25 +493,38 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
   if (triangle_count > kMaxConnectivityTriangles) {
     return bad(message("% triangles, more than 2^28", {triangle_count}));
   }
-  uint64_t symbols = 0, components = 0, vertex_ids = 0;
+  // Version 8: a head byte first, the context model and which counts follow (the others are 0,
+  // the component count 1); the vertex ids are counted beyond vertex_count.
+  const bool compact = version >= 8;
+  uint8_t head = kHeadEvents | kHeadDummies | kHeadGlue | kHeadComponents;
+  if (compact &&
+      (!in.read_le(&head) || (head & 0x80) != 0 || (head & kHeadModelMask) >= kContextModelCount)) {
+    return bad(message("truncated or unknown head byte %", {head}));
+  }
+  uint64_t symbols = 0, components = 1, vertex_ids = 0;
   OSTEON_RETURN_IF_ERROR(read(&symbols, "symbol count"));
   if (symbols > 4 * static_cast<uint64_t>(triangle_count)) {
     return bad(
         message("% symbols for % triangles (at most 4 per triangle)", {symbols, triangle_count}));
   }
-  OSTEON_RETURN_IF_ERROR(read(&components, "component count"));
+  if ((head & kHeadComponents) != 0) {
+    OSTEON_RETURN_IF_ERROR(read(&components, "component count"));
+  }
   if (components > symbols || symbols + components > 4 * static_cast<uint64_t>(triangle_count) ||
       (triangle_count > 0 && components == 0)) {
     return bad(message("% components for % symbols", {components, symbols}));
   }
   OSTEON_RETURN_IF_ERROR(read(&vertex_ids, "vertex id count"));
+  if (compact) {  // beyond vertex_count (a count that large fails below, without overflowing)
+    vertex_ids = vertex_ids > 3 * symbols ? 3 * symbols + 1 : vertex_ids + vertex_count;
+  }
   if (vertex_ids > 3 * symbols || vertex_ids < vertex_count) {
     return bad(
         message("% vertex ids for % symbols and % vertices", {vertex_ids, symbols, vertex_count}));
   }
 
   uint64_t count = 0;
-  OSTEON_RETURN_IF_ERROR(read(&count, "split event count"));
+  if ((head & kHeadEvents) != 0) OSTEON_RETURN_IF_ERROR(read(&count, "split event count"));
   if (count > symbols || !in.fits(count, 2)) {
     return bad(
         message("% split events for % symbols and % bytes", {count, symbols, in.remaining()}));
@@ -529,9 +544,9 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
     previous = split;
   }
 
-  auto read_ids = [&](std::vector<uint32_t>* ids, const char* what) -> Status {
+  auto read_ids = [&](std::vector<uint32_t>* ids, bool present, const char* what) -> Status {
     uint64_t n = 0;
-    OSTEON_RETURN_IF_ERROR(read(&n, what));
+    if (present) OSTEON_RETURN_IF_ERROR(read(&n, what));
     if (n > vertex_ids || !in.fits(n, 1)) return bad("too many ", what);
     ids->resize(n);
     uint64_t last = 0;
@@ -546,8 +561,8 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
     return Status::ok_status();
   };
   std::vector<uint32_t> dummies, copies;
-  OSTEON_RETURN_IF_ERROR(read_ids(&dummies, "dummy vertices"));
-  OSTEON_RETURN_IF_ERROR(read_ids(&copies, "glued vertices"));
+  OSTEON_RETURN_IF_ERROR(read_ids(&dummies, (head & kHeadDummies) != 0, "dummy vertices"));
+  OSTEON_RETURN_IF_ERROR(read_ids(&copies, (head & kHeadGlue) != 0, "glued vertices"));
   std::vector<std::pair<uint32_t, uint32_t>> glue(copies.size());
   for (size_t i = 0; i < copies.size(); ++i) {
     uint64_t original = 0;
@@ -557,14 +572,14 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
   }
 
   at = in.offset();
-  uint8_t model = 0;
-  if (!in.read_le(&model)) return bad("truncated context model");
+  uint8_t model = head & kHeadModelMask;
+  if (!compact && !in.read_le(&model)) return bad("truncated context model");
   if (model >= kContextModelCount) return bad(message("unknown context model %", {model}));
   SymbolContext context(kContextModels[model]);
   at = in.offset();
   SymbolDecoder decoder;
-  OSTEON_RETURN_IF_ERROR(
-      decoder.init(in, kSymbolCount, context.contexts(), source, "connectivity"));
+  OSTEON_RETURN_IF_ERROR(decoder.init(in, kSymbolCount, context.contexts(),
+                                      {version, symbols, 0, version >= 8}, source, "connectivity"));
   if (decoder.symbols_left() != symbols) {
     return bad(
         message("the symbol section holds % symbols, not %", {decoder.symbols_left(), symbols}));
@@ -581,6 +596,7 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
   if (!core.close_components()) return bad(core.what());
 
   DecodedConnectivity out;
+  out.last_state = decoder.last_state();
   const char* what = "";
   if (!uncut(core, dummies, glue, triangle_count, vertex_count, &out, nullptr, &what)) {
     return bad(what);

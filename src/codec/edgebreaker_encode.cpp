@@ -255,30 +255,6 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     slot = ev;
   }
 
-  // The section (docs/FORMAT.md, "Connectivity section").
-  std::vector<uint8_t>& bytes = out.bytes;
-  ByteWriter writer(&bytes);
-  writer.write_varint(n);
-  writer.write_varint(components);
-  writer.write_varint(vertex_ids);
-  writer.write_varint(events.size());
-  for (size_t i = 0; i < events.size(); ++i) {
-    writer.write_varint(i == 0 ? events[i].split : events[i].split - events[i - 1].split - 1);
-    writer.write_varint((static_cast<uint64_t>(events[i].split - 1 - events[i].source) << 1) |
-                        events[i].edge);
-  }
-  auto put_ids = [&](const std::vector<uint32_t>& ids) {
-    writer.write_varint(ids.size());
-    for (size_t i = 0; i < ids.size(); ++i) {
-      writer.write_varint(i == 0 ? ids[i] : ids[i] - ids[i - 1] - 1);
-    }
-  };
-  put_ids(dummies);
-  std::vector<uint32_t> copies;
-  for (const auto& g : glue) copies.push_back(g.first);
-  put_ids(copies);
-  for (const auto& g : glue) writer.write_varint(g.second);
-
   // Each context model the encoder tries is sized from its symbols' counts alone, by the tables
   // the entropy coder would plan for them (plan_symbols); only the smallest is coded, with that
   // plan. The symbols are counted once, by every feature at once (the joint model: all three
@@ -336,6 +312,35 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
       best_model = model;
     }
   }
+  // The section (docs/FORMAT.md, "Connectivity section"): the head byte says which of the counts
+  // that are usually 0 (events, dummies, glue) or 1 (components) follow.
+  std::vector<uint8_t>& bytes = out.bytes;
+  ByteWriter writer(&bytes);
+  const uint8_t head = static_cast<uint8_t>(
+      best_model | (events.empty() ? 0 : kHeadEvents) | (dummies.empty() ? 0 : kHeadDummies) |
+      (glue.empty() ? 0 : kHeadGlue) | (components == 1 ? 0 : kHeadComponents));
+  writer.write_le<uint8_t>(head);
+  writer.write_varint(n);
+  if (components != 1) writer.write_varint(components);
+  writer.write_varint(vertex_ids - vertex_count);
+  if (!events.empty()) writer.write_varint(events.size());
+  for (size_t i = 0; i < events.size(); ++i) {
+    writer.write_varint(i == 0 ? events[i].split : events[i].split - events[i - 1].split - 1);
+    writer.write_varint((static_cast<uint64_t>(events[i].split - 1 - events[i].source) << 1) |
+                        events[i].edge);
+  }
+  auto put_ids = [&](const std::vector<uint32_t>& ids) {
+    if (!ids.empty()) writer.write_varint(ids.size());
+    for (size_t i = 0; i < ids.size(); ++i) {
+      writer.write_varint(i == 0 ? ids[i] : ids[i] - ids[i - 1] - 1);
+    }
+  };
+  put_ids(dummies);
+  std::vector<uint32_t> copies;
+  for (const auto& g : glue) copies.push_back(g.first);
+  put_ids(copies);
+  for (const auto& g : glue) writer.write_varint(g.second);
+
   const SymbolContext context(kContextModels[best_model]);
   std::vector<uint32_t> context_of_slot(joint_order.size());
   for (size_t slot = 0; slot < joint_order.size(); ++slot) {
@@ -347,10 +352,9 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     coder.put(context_of_slot[slot_of_symbol[k]], decoded_symbols[k]);
   }
   coder.use_plan(std::move(best_plan));
-  std::vector<uint8_t> best;
-  coder.append_to(&best);
-  bytes.push_back(static_cast<uint8_t>(best_model));
-  bytes.insert(bytes.end(), best.begin(), best.end());
+  out.symbols_at = bytes.size();
+  coder.append_to(&bytes);
+  out.symbols.emplace(std::move(coder));
   return out;
 }
 

@@ -221,6 +221,13 @@ struct ContextModel {
 inline constexpr ContextModel kContextModels[] = {
     {0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {2, 1, 1}, {2, 1, 8}, {3, 1, 4},
 };
+/// Version 8's head byte of the connectivity section: the context model in its low bits, then
+/// which of the counts that are usually 0 (or 1) follow.
+inline constexpr uint8_t kHeadModelMask = 7;
+inline constexpr uint8_t kHeadEvents = 1u << 3;      // split events follow
+inline constexpr uint8_t kHeadDummies = 1u << 4;     // dummy vertices follow
+inline constexpr uint8_t kHeadGlue = 1u << 5;        // glued vertices follow
+inline constexpr uint8_t kHeadComponents = 1u << 6;  // the component count follows (else 1)
 inline constexpr uint32_t kContextModelCount =
     static_cast<uint32_t>(sizeof(kContextModels) / sizeof(kContextModels[0]));
 /// The models the encoder tries: the first four always, and the large models 4 and 5 (1600 and

@@ -30,12 +30,17 @@ namespace {
 
 constexpr uint32_t kProbBits = 12;
 constexpr uint32_t kProbScale = 1u << kProbBits;  // frequencies of a context sum to this
-constexpr uint32_t kRansLow = 1u << 23;           // the state lives in [kRansLow, 2^31)
 constexpr uint64_t kMaxSymbols = 0xffffffffu;
 constexpr int kMaxGammaZeros = 32;   // gamma-coded values are < 2^33
 constexpr int kMaxGolombOrder = 31;  // so (2^33 - 1) << k fits in 64 bits
-// The symbols are coded by kStates interleaved rANS states: symbol i by state i mod kStates.
+// The symbols are coded by kStates interleaved rANS states: symbol i by state i mod kStates. From
+// stream version 8 a section of fewer than kShortSection symbols has one state (its flush costs 4
+// bytes, not 12, on a bone's coarsest level of a few hundred symbols) and decodes on the slow path.
 constexpr uint32_t kStates = 3;
+constexpr uint64_t kShortSection = 4096;
+constexpr uint32_t states_for(uint64_t symbols) {
+  return symbols < kShortSection ? 1 : kStates;
+}
 // A decode step in a context of two or more symbols (every frequency <= 4095) shrinks its state
 // by a factor <= 1 - 2^-12 (plus 1); a byte read grows it by < 2^8. Starting below 2^31 and
 // ending at >= 2^23, a state that reads R renormalisation bytes decodes fewer than
@@ -569,14 +574,15 @@ void plan_tables(uint32_t used, uint32_t alphabet, std::vector<uint32_t>* counts
 }
 
 /// Messages for one section: "bone.osteon: connectivity: what (byte N)".
+/// Given the pattern and numbers rather than the text (invalid_data): the section decoders have
+/// some 30 error returns, each of which would otherwise build its strings itself (a few hundred
+/// bytes of the WebAssembly decoder's download).
 struct SectionErrors {
   const std::string& source;
   const std::string& what;
-  Status operator()(size_t offset, const std::string& message) const {
-    std::string text = what;  // appends, not operator+ (fewer functions in the WebAssembly decoder)
-    text += ": ";
-    text += message;
-    return error(ErrorCode::kInvalidData, source, text, at_byte(offset));
+  Status operator()(size_t offset, const char* pattern,
+                    std::initializer_list<uint64_t> numbers = {}) const {
+    return invalid_data(source, offset, what.c_str(), ": ", numbers, pattern);
   }
 };
 
@@ -591,12 +597,14 @@ struct TableBlock {
 OSTEON_COLD_FUNCTION Status read_model(BitReader& bits, uint32_t alphabet, uint64_t context,
                                        const SectionErrors& errors, size_t base,
                                        WeightTable* model) {
-  auto bad = [&](const std::string& message) { return errors(base + bits.byte_offset(), message); };
+  auto bad = [&](const char* pattern, std::initializer_list<uint64_t> numbers = {}) {
+    return errors(base + bits.byte_offset(), pattern, numbers);
+  };
   uint64_t sparse = 0;
   uint64_t count = 0;  // dense: symbols up to the last present one; sparse: present symbols
   if (!bits.get(1, &sparse) || !bits.gamma(&count)) return bad("truncated frequency tables");
   if (count > alphabet) {
-    return bad(message("% symbols in context %, alphabet %", {count, context, alphabet}));
+    return bad("% symbols in context %, alphabet %", {count, context, alphabet});
   }
   if (sparse == 1) {
     uint64_t symbol = ~uint64_t{0};  // "-1": the first gap is symbol + 1
@@ -605,8 +613,7 @@ OSTEON_COLD_FUNCTION Status read_model(BitReader& bits, uint32_t alphabet, uint6
       if (!bits.gamma(&gap)) return bad("truncated frequency tables");
       symbol += gap;
       if (symbol >= alphabet) {
-        return bad(message("symbol % out of range in context % (alphabet %)",
-                           {symbol, context, alphabet}));
+        return bad("symbol % out of range in context % (alphabet %)", {symbol, context, alphabet});
       }
       model->symbols.push_back(static_cast<uint32_t>(symbol));
     }
@@ -618,7 +625,7 @@ OSTEON_COLD_FUNCTION Status read_model(BitReader& bits, uint32_t alphabet, uint6
   uint64_t order = 0;  // stored + 1
   if (!bits.gamma(&order)) return bad("truncated frequency tables");
   if (order - 1 > kMaxGolombOrder) {
-    return bad(message("bad weight code % in context %", {order - 1, context}));
+    return bad("bad weight code % in context %", {order - 1, context});
   }
   for (uint64_t i = 0; i < count; ++i) {
     uint64_t weight = 0;
@@ -626,11 +633,11 @@ OSTEON_COLD_FUNCTION Status read_model(BitReader& bits, uint32_t alphabet, uint6
       return bad("truncated frequency tables");
     }
     weight += sparse;  // sparse weights are stored - 1; dense ones are 0 for absent symbols
-    if (weight > 0xffffffffu) return bad(message("weight out of range in context %", {context}));
+    if (weight > 0xffffffffu) return bad("weight out of range in context %", {context});
     if (sparse == 0 && weight != 0) model->symbols.push_back(static_cast<uint32_t>(i));
     if (weight != 0) model->weights.push_back(static_cast<uint32_t>(weight));
   }
-  if (model->symbols.empty()) return bad(message("no symbols in context %", {context}));
+  if (model->symbols.empty()) return bad("no symbols in context %", {context});
   return Status::ok_status();
 }
 
@@ -640,13 +647,13 @@ OSTEON_COLD_FUNCTION Status read_tables(ByteReader& in, uint32_t alphabet, uint3
                                         const SectionErrors& bad, TableBlock* tables) {
   const size_t base = in.offset();
   BitReader bits(in.current(), in.remaining());
-  auto bad_here = [&](const std::string& message) {
-    return bad(base + bits.byte_offset(), message);
+  auto bad_here = [&](const char* pattern, std::initializer_list<uint64_t> numbers = {}) {
+    return bad(base + bits.byte_offset(), pattern, numbers);
   };
   uint64_t used = 0;
   if (!bits.gamma(&used)) return bad_here("truncated frequency tables");
   if (used > contexts) {
-    return bad(base, message("% contexts declared, the coder has %", {used, contexts}));
+    return bad(base, "% contexts declared, the coder has %", {used, contexts});
   }
   uint64_t context = ~uint64_t{0};  // "-1": the first gap is context + 1
   for (uint64_t u = 0; u < used; ++u) {
@@ -657,7 +664,7 @@ OSTEON_COLD_FUNCTION Status read_tables(ByteReader& in, uint32_t alphabet, uint3
     }
     context += gap;
     if (context >= contexts) {
-      return bad_here(message("context % out of range (% contexts)", {context, contexts}));
+      return bad_here("context % out of range (% contexts)", {context, contexts});
     }
     if (reference == 1) {
       WeightTable model;
@@ -665,8 +672,8 @@ OSTEON_COLD_FUNCTION Status read_tables(ByteReader& in, uint32_t alphabet, uint3
       tables->models.push_back(std::move(model));
       reference = tables->models.size() + 1;
     } else if (reference - 2 >= tables->models.size()) {
-      return bad_here(message("table % named in context %, only % defined",
-                              {reference - 2, context, tables->models.size()}));
+      return bad_here("table % named in context %, only % defined",
+                      {reference - 2, context, tables->models.size()});
     }
     tables->table_of.emplace_back(static_cast<uint32_t>(context),
                                   static_cast<uint32_t>(reference - 2));
@@ -677,6 +684,17 @@ OSTEON_COLD_FUNCTION Status read_tables(ByteReader& in, uint32_t alphabet, uint3
 }
 
 }  // namespace
+
+OSTEON_NOINLINE OSTEON_COLD_FUNCTION Status invalid_data(const std::string& source, size_t at,
+                                                         const char* prefix, const char* first,
+                                                         std::initializer_list<uint64_t> numbers,
+                                                         const char* second) {
+  std::string pattern = first;  // appends, not operator+ (fewer functions in the decoder)
+  pattern += second;
+  std::string text = prefix;
+  text += message(pattern.c_str(), numbers);
+  return error(ErrorCode::kInvalidData, source, text, at_byte(at));
+}
 
 OSTEON_COLD_FUNCTION std::string message(const char* pattern,
                                          std::initializer_list<uint64_t> numbers) {
@@ -749,11 +767,12 @@ void SymbolEncoder::use_plan(SymbolPlan plan) {
   plan_ = std::move(plan);
 }
 
-void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
+uint32_t SymbolEncoder::append_to(std::vector<uint8_t>* out, uint32_t end_state,
+                                  bool chained) const {
+  assert(end_state >= kRansLow && end_state < (1u << 31));
   const size_t n = queued_.size();
-  ByteWriter writer(out);
-  writer.write_varint(n);
-  writer.write_varint(bit_count_);
+  ByteWriter(out).write_varint(bit_count_);
+  uint32_t first_state = end_state;  // an empty section hands the chain on
   if (n > 0) {
     SymbolPlan planned;
     const SymbolPlan& tables = plan_.has_value() ? *plan_ : (planned = plan());
@@ -766,30 +785,39 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
     // rANS, last symbol first, bytes written backwards into one buffer that all states share:
     // each symbol emits at most two. The decoder reads them forwards, each step's bytes where
     // the encoder's same step wrote them.
+    const uint32_t state_count = states_for(n);
     std::vector<uint8_t> buffer(2 * n + 4 * kStates);
     uint8_t* const end = buffer.data() + buffer.size();
     uint8_t* p = end;
     uint32_t states[kStates];
     std::fill(states, states + kStates, kRansLow);
+    // The state the decoder holds as x0 once every symbol is decoded (its states rotate once a
+    // symbol) carries the chain on: state n mod S.
+    states[n % state_count] = end_state;
     for (size_t i = n; i-- > 0;) {
       const uint32_t q = queued_[i];
       const size_t index = size_t{group[row[q >> kProbBits]]} * alphabet_ + (q & (kProbScale - 1));
       const uint32_t f = freq[index];
       const uint32_t x_max = ((kRansLow >> kProbBits) << 8) * f;  // <= 2^31
-      uint32_t& x = states[i % kStates];
+      uint32_t& x = states[i % state_count];
       while (x >= x_max) {
         *--p = static_cast<uint8_t>(x);
         x >>= 8;
       }
       x = ((x / f) << kProbBits) + (x % f) + start[index];
     }
-    // The final states, little-endian, state 0 first: the decoder's initial states.
-    p -= 4 * kStates;
-    for (uint32_t k = 0; k < kStates; ++k) {
-      for (int i = 0; i < 4; ++i) p[4 * k + i] = static_cast<uint8_t>(states[k] >> (8 * i));
+    // The final states, little-endian, state 0 first: the decoder's initial states (state 0
+    // not, where the section before hands it over). The rANS bytes run up to the raw bits, the
+    // section's last bytes.
+    const uint32_t first = chained ? 1 : 0;
+    p -= 4 * (state_count - first);
+    for (uint32_t k = first; k < state_count; ++k) {
+      for (int i = 0; i < 4; ++i) {
+        p[4 * (k - first) + i] = static_cast<uint8_t>(states[k] >> (8 * i));
+      }
     }
-    ByteWriter(out).write_varint(static_cast<uint64_t>(end - p));
     out->insert(out->end(), p, end);
+    first_state = states[0];
   }
   for (uint32_t word : words_) {  // little-endian: the stream is LSB-first
     for (int i = 0; i < 4; ++i) out->push_back(static_cast<uint8_t>(word >> (8 * i)));
@@ -797,68 +825,81 @@ void SymbolEncoder::append_to(std::vector<uint8_t>* out) const {
   for (int i = 0; i < (pending_bits_ + 7) / 8; ++i) {
     out->push_back(static_cast<uint8_t>(pending_ >> (8 * i)));
   }
+  return first_state;
 }
 
 // ---- decoder ---------------------------------------------------------------------------------
 
-OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet,
-                                                uint32_t contexts, const std::string& source,
-                                                const std::string& what) {
+OSTEON_NOINLINE OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, uint32_t alphabet,
+                                                                uint32_t contexts,
+                                                                SectionLayout layout,
+                                                                const std::string& source,
+                                                                const std::string& what) {
   assert(alphabet >= 2 && alphabet <= kProbScale);
   assert(contexts >= 1 && contexts <= kMaxContexts);
   *this = SymbolDecoder();
   const SectionErrors bad{source, what};
+  const bool compact = layout.version >= kCompactSectionVersion;
 
   size_t at = in.offset();
-  uint64_t symbols = 0;
-  if (!in.read_varint(&symbols)) return bad(at, "truncated symbol count");
+  uint64_t symbols = layout.symbols;
+  if (!compact && !in.read_varint(&symbols)) return bad(at, "truncated symbol count");
   if (symbols > kMaxSymbols) {
-    return bad(at, message("% symbols declared, more than 2^32 - 1", {symbols}));
+    return bad(at, "% symbols declared, more than 2^32 - 1", {symbols});
   }
   at = in.offset();
   uint64_t bit_count = 0;
   if (!in.read_varint(&bit_count)) return bad(at, "truncated raw bit count");
   const uint64_t bit_bytes = bit_count / 8 + (bit_count % 8 != 0 ? 1 : 0);
   if (!in.fits(bit_bytes, 1)) {
-    return bad(at, message("% raw bits declared, % bytes remain", {bit_count, in.remaining()}));
+    return bad(at, "% raw bits declared, % bytes remain", {bit_count, in.remaining()});
   }
 
-  // An empty stream "ends" where the encoder started.
-  hot_.x0 = hot_.x1 = hot_.x2 = kRansLow;
+  // An empty stream "ends" where the encoder started (a chained one hands its first state on).
+  const bool chained = compact && layout.first_state != 0;
+  assert(!chained || (layout.first_state >= kRansLow && layout.first_state < (1u << 31)));
+  more_ = compact && layout.more;
+  hot_.x0 = chained ? layout.first_state : kRansLow;
+  hot_.x1 = hot_.x2 = kRansLow;
   if (symbols > 0) {
     TableBlock tables;
     OSTEON_RETURN_IF_ERROR(read_tables(in, alphabet, contexts, bad, &tables));
     const std::vector<WeightTable>& models = tables.models;
     at = in.offset();
-    uint64_t rans_bytes = 0;
-    if (!in.read_varint(&rans_bytes)) return bad(at, "truncated rANS byte count");
-    if (rans_bytes < 4 * kStates || !in.fits(rans_bytes, 1) ||
+    // Version 8: the rANS bytes are what the raw bits leave; one state for a short section.
+    uint64_t rans_bytes = in.remaining() - std::min<uint64_t>(in.remaining(), bit_bytes);
+    const uint32_t states = compact ? states_for(symbols) : kStates;
+    const uint32_t first = chained ? 1 : 0;  // state 0 handed over, not written
+    if (!compact && !in.read_varint(&rans_bytes)) return bad(at, "truncated rANS byte count");
+    if (rans_bytes < 4 * (states - first) || !in.fits(rans_bytes, 1) ||
         in.remaining() - rans_bytes < bit_bytes) {
-      return bad(at, message("% rANS bytes declared, % bytes remain for them and % raw bytes",
-                             {rans_bytes, in.remaining(), bit_bytes}));
+      return bad(at, "% rANS bytes, % bytes remain for them and % raw bytes",
+                 {rans_bytes, in.remaining(), bit_bytes});
     }
     // Unless a context is deterministic (its symbols cost no bits), every symbol costs bits.
     bool deterministic = false;
     for (const WeightTable& m : models) deterministic = deterministic || m.symbols.size() == 1;
-    if (!deterministic && symbols > kSymbolsPerByte * (rans_bytes - 3 * kStates)) {
-      return bad(at, message("% symbols cannot fit in % rANS bytes", {symbols, rans_bytes}));
+    if (!deterministic && symbols > kSymbolsPerByte * (rans_bytes + 4 * first - 3 * states)) {
+      return bad(at, "% symbols cannot fit in % rANS bytes", {symbols, rans_bytes});
     }
     rans_at_ = in.offset();
-    uint32_t states[kStates] = {};
-    for (uint32_t& state : states) {
-      (void)in.read_le(&state);  // rans_bytes >= 4 * kStates remain
-      if (state < kRansLow || state >= (1u << 31)) {
+    uint32_t x[kStates] = {hot_.x0, kRansLow, kRansLow};
+    for (uint32_t k = first; k < states; ++k) {
+      (void)in.read_le(&x[k]);  // rans_bytes >= 4 * states remain
+      if (x[k] < kRansLow || x[k] >= (1u << 31)) {
         return bad(in.offset() - 4, "initial rANS state out of range");
       }
     }
     static_assert(kStates == 3);
-    hot_.x0 = states[0];
-    hot_.x1 = states[1];
-    hot_.x2 = states[2];
+    hot_.x0 = x[0];
+    hot_.x1 = x[1];
+    hot_.x2 = x[2];
+    single_ = states == 1;
+    state_bytes_ = 4 * (states - first);
     data_ = in.current();
     hot_.cur = data_;
-    end_ = data_ + (rans_bytes - 4 * kStates);
-    (void)in.skip(static_cast<size_t>(rans_bytes - 4 * kStates));
+    end_ = data_ + (rans_bytes - state_bytes_);
+    (void)in.skip(static_cast<size_t>(rans_bytes - state_bytes_));
 
     // Search tables (entropy.hpp): cumulative frequencies per context for small alphabets,
     // entries per table and buckets per context for large ones.
@@ -910,7 +951,7 @@ OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, uint32_t alphabe
     }
   }
 
-  bits_at_ = in.offset();
+  bits_at_ = in.offset();  // version 8: the raw bits end the section (rans_bytes above)
   bits_ = in.current();
   bit_size_ = bit_count;
   bit_bytes_ = bit_bytes;
@@ -923,8 +964,8 @@ OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, uint32_t alphabe
   return Status::ok_status();
 }
 
-SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t context) const {
-  if (c.budget == 0) {  // refill: as many symbols as surely have two bytes each
+OSTEON_NOINLINE SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t context) const {
+  if (c.budget == 0 && !single_) {  // refill: as many symbols as surely have two bytes each
     c.budget = std::min<size_t>(c.spare, static_cast<size_t>(end_ - c.cur) / 2);
     c.spare -= c.budget;
   }
@@ -945,6 +986,10 @@ SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t context) const {
   while (y < kRansLow) {
     if (c.cur == end_) return failed(c);
     y = (y << 8) | *c.cur++;
+  }
+  if (single_) {  // one state: every symbol is x0's, and the budget stays empty
+    c.x0 = y;
+    return {c, symbol};
   }
   c.x0 = c.x1;
   c.x1 = c.x2;
@@ -974,18 +1019,19 @@ OSTEON_COLD_FUNCTION Status SymbolDecoder::finish(const std::string& source,
   const SectionErrors bad{source, what};
   if (!hot_.ok) return bad(rans_at_, "corrupt symbol stream, or one read past its end");
   if (symbols_left() != 0) {
-    return bad(rans_at_, message("% symbols left unread", {symbols_left()}));
+    return bad(rans_at_, "% symbols left unread", {symbols_left()});
   }
   if (hot_.cur != end_) {
-    return bad(rans_at_ + 4 * kStates + static_cast<size_t>(hot_.cur - data_),
-               message("% rANS bytes left unread", {static_cast<uint64_t>(end_ - hot_.cur)}));
+    return bad(rans_at_ + state_bytes_ + static_cast<size_t>(hot_.cur - data_),
+               "% rANS bytes left unread", {static_cast<uint64_t>(end_ - hot_.cur)});
   }
-  if (hot_.x0 != kRansLow || hot_.x1 != kRansLow || hot_.x2 != kRansLow) {
+  // The state left in x0 of a section that another follows is where that one starts.
+  if ((!more_ && hot_.x0 != kRansLow) || hot_.x1 != kRansLow || hot_.x2 != kRansLow) {
     return bad(rans_at_, "the rANS states do not end where they began");
   }
   if (hot_.bit_pos != bit_size_) {
-    return bad(bits_at_ + static_cast<size_t>(hot_.bit_pos / 8),
-               message("% raw bits left unread", {bit_size_ - hot_.bit_pos}));
+    return bad(bits_at_ + static_cast<size_t>(hot_.bit_pos / 8), "% raw bits left unread",
+               {bit_size_ - hot_.bit_pos});
   }
   return Status::ok_status();
 }

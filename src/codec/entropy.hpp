@@ -29,10 +29,18 @@
 
 namespace osteon::detail {
 
+/// The rANS states live in [kRansLow, 2^31); the encoder starts a stream's last section there.
+inline constexpr uint32_t kRansLow = 1u << 23;
+
 /// A message with numbers in it: each '%' of `pattern` becomes the next of `numbers`, in
 /// decimal. One small function for the decoder's many error messages, where string
 /// concatenations would inline several calls each (the WebAssembly decoder's size is budgeted).
 std::string message(const char* pattern, std::initializer_list<uint64_t> numbers);
+/// The decoders' kInvalidData error: "source: " + prefix + message(first + second, numbers),
+/// at byte `at`. Out of line, so that each of the decoder's error returns is a call, not the
+/// strings' code again (the WebAssembly decoder's download is budgeted).
+Status invalid_data(const std::string& source, size_t at, const char* prefix, const char* first,
+                    std::initializer_list<uint64_t> numbers = {}, const char* second = "");
 
 /// A section's tables, planned from its symbols' counts: each used context's row (row[context],
 /// or ~0u), the row whose table each row codes with, per (group row, symbol) the frequency and
@@ -90,11 +98,18 @@ class SymbolEncoder {
   const std::vector<uint32_t>& queued() const { return queued_; }
   uint64_t raw_bit_count() const { return bit_count_; }
 
-  /// Appends the section: its layout is in docs/FORMAT.md ("Symbol section"). Frequencies are
+  /// Appends the section, in stream version 8's layout (docs/FORMAT.md, "Symbol section"): the
+  /// caller's format implies the symbol count, and nothing may follow the section in its
+  /// enclosing section (the rANS bytes end where the raw bits begin). Frequencies are
   /// measured per context over the queued symbols; contexts with few symbols may share a table
   /// where that codes smaller. O(symbols + used contexts * alphabet), plus a bounded table-merging
   /// search (a few ms on small meshes; at most ~100 ms for thousands of sparse contexts).
-  void append_to(std::vector<uint8_t>* out) const;
+  /// Chained sections (SectionLayout): `end_state` is where state N mod S ends in decoding
+  /// (kRansLow for a stream's last section, otherwise the next section's first state, which its
+  /// own append_to returned), and a `chained` section (not the stream's first) does not write its
+  /// state 0. Returns the section's first state 0 (`end_state` if it has no symbols).
+  uint32_t append_to(std::vector<uint8_t>* out, uint32_t end_state = kRansLow,
+                     bool chained = false) const;
   /// Codes the queued symbols with `plan`, which plan_symbols() made from their counts (the
   /// plan append_to would make itself), instead of planning again.
   void use_plan(SymbolPlan plan);
@@ -112,19 +127,41 @@ class SymbolEncoder {
   std::optional<SymbolPlan> plan_;  // from use_plan(); otherwise append_to plans
 };
 
+/// A symbol section's layout (docs/FORMAT.md, "Symbol section"), by the stream's version. Up to
+/// version 7 a section states its symbol count and its rANS byte count, and has three rANS states.
+/// From version 8 (kCompactSectionVersion) the enclosing section knows the symbol count, the
+/// symbol section runs to the enclosing section's end (the rANS bytes are what the raw bits
+/// leave), and a short section has one state.
+///
+/// From version 8 the sections of a stream also form one chain: a section's state 0 starts where
+/// the section before it left the state it decodes its last symbols with (that section's
+/// last_state(), the encoder's state N mod S), so only the stream's first section writes its
+/// state 0, and only the last section's states must all end at 2^23.
+struct SectionLayout {
+  uint32_t version;
+  uint64_t symbols;  // version 8: the symbol count; before it, ignored (the section says)
+  // Version 8: the section before's last_state(), this section's state 0, or 0 for a stream's
+  // first section (which writes its own).
+  uint32_t first_state = 0;
+  // Version 8: another section follows, which starts where this one's state 0 ends.
+  bool more = false;
+};
+constexpr uint32_t kCompactSectionVersion = 8;
+
 class SymbolDecoder {
  public:
-  /// Reads a section written by SymbolEncoder::append_to with the same alphabet and contexts.
-  /// `what` names the section in messages ("connectivity", "geometry"). Errors: truncated or
-  /// inconsistent tables, counts beyond the bytes that remain.
+  /// Reads a section written by SymbolEncoder::append_to (version 8), or by an earlier encoder
+  /// (`layout`), with the same alphabet and contexts. In version 8 `in` ends where the section
+  /// does. `what` names the section in messages ("connectivity", "geometry"). Errors: truncated
+  /// or inconsistent tables, counts beyond the bytes that remain.
   /// Memory: for alphabets up to kSmallAlphabet, 16 bytes per context (64 KiB for 4096); for
   /// larger ones 4 * kBuckets bytes per context and 4 per present symbol of each table (the
   /// table block spends at least one bit on a symbol).
   /// Known approximation: symbols of a single-symbol context cost no bits, so their number cannot
   /// be bounded by the section's size (it is capped at 2^32 - 1): callers compare symbols_left()
   /// with the count their own header promises.
-  Status init(ByteReader& in, uint32_t alphabet, uint32_t contexts, const std::string& source,
-              const std::string& what);
+  Status init(ByteReader& in, uint32_t alphabet, uint32_t contexts, SectionLayout layout,
+              const std::string& source, const std::string& what);
 
   /// The decoder's moving parts: the rANS state, the next rANS byte, the raw-bit position. A hot
   /// loop copies them into a local variable (cursor()), decodes through get(Cursor&, ...) and
@@ -137,6 +174,8 @@ class SymbolDecoder {
     // chains of dependent steps instead of one: a step's table search and multiply overlap the
     // next steps' (when the caller's contexts allow; see get3()). (Kept apart from each other:
     // adjacent, the compiler rotates them as one vector, which chains every step to the last.)
+    // A short section of version 8 has x0 alone (x1 = x2 = 2^23 throughout) and a budget of 0:
+    // its few symbols all take the slow path, which does not rotate.
     uint32_t x0;
     const uint8_t* cur;  // the next renormalisation byte
     uint32_t x1;
@@ -167,6 +206,9 @@ class SymbolDecoder {
   uint64_t get_bits(Cursor& cursor, int count) const;
 
   bool ok() const { return hot_.ok; }
+  /// After finish(): the state the cursor holds as x0, where the next section of a version-8
+  /// stream starts (the encoder's state N mod S, which it started there).
+  uint32_t last_state() const { return hot_.x0; }
   /// Symbols still to be decoded (for bounds: a decoder never asks for more than were coded).
   size_t symbols_left() const { return hot_.spare + hot_.budget; }
 
@@ -179,7 +221,6 @@ class SymbolDecoder {
  private:
   static constexpr uint32_t kProbBits = 12;
   static constexpr uint32_t kProbScale = 1u << kProbBits;  // frequencies sum to this
-  static constexpr uint32_t kRansLow = 1u << 23;           // state in [kRansLow, 2^31)
   static constexpr uint32_t kMaxContexts = 4096;
 
   // A decode step searches the context's table for the symbol owning the slot x mod 2^12.
@@ -225,6 +266,9 @@ class SymbolDecoder {
   }
 
   bool small_ = true;
+  bool single_ = false;  // one rANS state (a short section of version 8)
+  bool more_ = false;    // another section continues from the state left in x0 (version 8)
+  uint32_t state_bytes_ = 12;
   uint32_t contexts_ = 0;
   std::vector<uint16_t> cum_;       // small alphabets: 8 per context
   std::vector<TableRef> table_of_;  // large alphabets: per context

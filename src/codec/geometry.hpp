@@ -44,24 +44,30 @@ std::vector<Vec3> dequantize(const QuantizedPositions& q, const QuantizationGrid
 /// neighbours' misses along the normal where that pays (curvature); residuals are entropy-coded.
 /// `lattice` is the grid's QuantizationGrid::lattice (0: none); the encoder codes on that lattice
 /// when its estimate says that is smaller. Appends the current version's geometry section
-/// (docs/FORMAT.md) to `out`. O(V + T).
-/// Returns what it chose, as the section's first bytes say it (for EncodeReport).
+/// (docs/FORMAT.md) to `out`, its symbol section chained (SectionLayout) after the connectivity's
+/// and before a section that starts at `end_state` (kRansLow where none follows). O(V + T).
+/// Returns what it chose, as the section's first bytes say it (for EncodeReport), and its first
+/// rANS state (the connectivity's end_state).
 struct GeometryChoice {
   uint8_t mode = 0;  ///< the mode byte: prediction mode and the flags of the weights after it
   int shape_scale = 16;
   int shape_apex = 0;
   int extrapolation = 0;
   int curvature = 0;
+  uint32_t first_state = 0;
 };
 GeometryChoice encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
-                               uint32_t lattice, std::vector<uint8_t>* out);
-/// Decodes a geometry section of stream `version` (1 to 7; version 7's section is version 6's),
+                               uint32_t lattice, std::vector<uint8_t>* out,
+                               uint32_t end_state = kRansLow);
+/// Decodes a geometry section of stream `version` (1 to 8; version 7's section is version 6's,
+/// version 8's differs in its symbol section's layout alone),
 /// for `vertex_count` vertices. `newest` is decode_connectivity's for the stream (its vertices <
 /// vertex_count, each entry's n and p and each neighbour before the vertex it is filed under,
-/// each o too or kNoVertexId). Errors name `source` and the byte offset. O(V + T); allocates O(V)
-/// beyond the result.
+/// each o too or kNoVertexId). `chain`: in version 8, on entry the connectivity's last rANS
+/// state, on return the geometry's (where the normals section starts, when `more` says one
+/// follows). Errors name `source` and the byte offset. O(V + T); allocates O(V) beyond the result.
 Result<QuantizedPositions> decode_geometry(ByteReader& in, const NewestTriangles& newest,
                                            uint32_t vertex_count, uint8_t version,
-                                           const std::string& source);
+                                           const std::string& source, uint32_t* chain, bool more);
 
 }  // namespace osteon::detail

@@ -55,6 +55,7 @@ std::vector<Octahedral> predictions(const std::vector<uint32_t>& indices,
     const Vec3d u{double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
     const Vec3d v{double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
     const Vec3d n = cross(u, v);
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       double* s = &sum[3 * size_t{indices[t + k]}];
       s[0] += n.x;
@@ -92,8 +93,8 @@ Vec3 octahedral_decode(uint32_t u, uint32_t v, int bits) {
   return {float(x / length), float(y / length), float(z / length)};
 }
 
-void encode_normals(const std::vector<uint32_t>& indices, const QuantizedPositions& q,
-                    const std::vector<Vec3>& normals, int bits, std::vector<uint8_t>* out) {
+uint32_t encode_normals(const std::vector<uint32_t>& indices, const QuantizedPositions& q,
+                        const std::vector<Vec3>& normals, int bits, std::vector<uint8_t>* out) {
   out->push_back(uint8_t(bits));
   std::vector<Octahedral> predicted = predictions(indices, q, bits);
   SymbolEncoder enc(kResidualSymbols, 2);
@@ -109,33 +110,33 @@ void encode_normals(const std::vector<uint32_t>& indices, const QuantizedPositio
       put_residual_bits(enc, symbol, z);
     }
   }
-  enc.append_to(out);
+  return enc.append_to(out, kRansLow, /*chained=*/true);
 }
 
-OSTEON_COLD_FUNCTION Result<std::vector<Vec3>> decode_normals(ByteReader& in,
-                                                              const std::vector<uint32_t>& indices,
-                                                              const QuantizedPositions& q,
-                                                              const std::string& source) {
+OSTEON_COLD_FUNCTION Result<std::vector<Vec3>> decode_normals(
+    ByteReader& in, const std::vector<uint32_t>& indices, const QuantizedPositions& q,
+    uint8_t version, const std::string& source, uint32_t first_state) {
   uint8_t bits = 0;
   if (!in.read_le(&bits) || bits < 8 || bits > 16) {
-    return error(ErrorCode::kInvalidData, source, "normals: bits per component must be 8..16",
-                 at_byte(in.offset()));
+    return invalid_data(source, in.offset(), "normals: ", "bits per component must be 8..16");
   }
   std::vector<Octahedral> predicted = predictions(indices, q, bits);
   SymbolDecoder dec;
-  OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols, 2, source, "normals"));
+  OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols, 2,
+                                  {version, 2 * uint64_t{predicted.size()}, first_state}, source,
+                                  "normals"));
   std::vector<Vec3> normals(predicted.size());
   const int64_t mask = (int64_t{1} << bits) - 1;
   for (size_t v = 0; v < normals.size(); ++v) {
     int64_t code[2] = {predicted[v].u, predicted[v].v};
+    OSTEON_UNROLL
     for (int k = 0; k < 2; ++k) {
       uint32_t symbol = dec.get(uint32_t(k));
       int64_t d = unzigzag(get_residual(dec, symbol));
       code[k] = (code[k] + d) & mask;
     }
     if (!dec.ok()) {
-      return error(ErrorCode::kInvalidData, source,
-                   message("normals: corrupt residual for vertex %", {v}), at_byte(in.offset()));
+      return invalid_data(source, in.offset(), "normals: ", "corrupt residual for vertex %", {v});
     }
     normals[v] = octahedral_decode(uint32_t(code[0]), uint32_t(code[1]), bits);
   }

@@ -158,6 +158,7 @@ inline void mean_symbols(const NewestTriangle* begin, const NewestTriangle* end,
                          const uint32_t* symbols, uint32_t local[3]) {
   const uint32_t entries = static_cast<uint32_t>(end - begin);
   if (entries <= kMaxSmallDivisor / 2) [[likely]] {
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       local[k] = ((lane(lanes, k) + entries) * kReciprocal[2 * entries]) >> 16;
     }
@@ -165,8 +166,10 @@ inline void mean_symbols(const NewestTriangle* begin, const NewestTriangle* end,
     // Lanes may overflow into each other beyond 16 entries: add them up again, apart.
     uint32_t sums[3] = {0, 0, 0};
     for (const NewestTriangle* f = begin; f != end; ++f) {
+      OSTEON_UNROLL
       for (int k = 0; k < 3; ++k) sums[k] += lane(symbols[f->n], k) + lane(symbols[f->p], k);
     }
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) local[k] = (sums[k] + entries) / (2 * entries);
   }
 }
@@ -253,12 +256,14 @@ inline TriangleShape apex_shape(uint32_t apex) {
 inline void apex_offset(const int32_t* n, const int32_t* p, const int32_t* o, int64_t apex[3]) {
   int64_t e[3], t[3];
   uint64_t big = 0;
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) {
     e[k] = int64_t{p[k]} - n[k];
     t[k] = int64_t{n[k]} + p[k] - 2 * int64_t{o[k]};
     big |= magnitude(uint64_t(e[k])) | magnitude(uint64_t(t[k]));
   }
   const int s = std::max(0, static_cast<int>(std::bit_width(big)) - 15);
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) {
     e[k] >>= s;
     t[k] >>= s;
@@ -271,6 +276,7 @@ inline void apex_offset(const int32_t* n, const int32_t* p, const int32_t* o, in
       kRootThree / std::max<int64_t>(isqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]), 1);
   const int64_t across[3] = {e[1] * c[2] - e[2] * c[1], e[2] * c[0] - e[0] * c[2],
                              e[0] * c[1] - e[1] * c[0]};
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) {
     apex[k] = ((across[k] * ratio + (int64_t{1} << 44)) >> 45) * (int64_t{1} << s);
   }
@@ -285,6 +291,7 @@ inline void shaped_parallelogram(const int32_t* n, const int32_t* p, const int32
   int64_t apex[3] = {0, 0, 0};
   if (shape.apex != 0) apex_offset(n, p, o, apex);
   constexpr int64_t kLimit = (int64_t{1} << 33) - 1;
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) {
     const int64_t np = int64_t{n[k]} + p[k];
     const int64_t t = np - 2 * int64_t{o[k]};
@@ -299,6 +306,7 @@ OSTEON_NOINLINE void entry_mean(uint32_t w, const NewestTriangles& nt, const int
                                 int64_t mean[3]) {
   const NewestTriangle* const begin = nt.entries.data() + nt.first[w];
   const NewestTriangle* const end = nt.entries.data() + nt.first[w + 1];
+  OSTEON_UNROLL
   for (int j = 0; j < 3; ++j) {
     int64_t sum = 0;
     for (const NewestTriangle* e = begin; e != end; ++e) {
@@ -323,6 +331,7 @@ inline void step_out(uint32_t u, const NewestTriangles& nt, const int32_t* xyz, 
   if (nt.first[u] == nt.first[u + 1]) return;
   int64_t mean[3];
   entry_mean(u, nt, xyz, mean);
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) pred[k] = stepped_out(pred[k], mean[k], weight);
 }
 
@@ -350,6 +359,7 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     out.kind = u != kNoVertexId ? kNeighbour : kNone;
     out.reach_bits = 0;
     const uint32_t w = u != kNoVertexId ? u : v - 1;
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       out.spread_bits[k] = 0;
       out.local[k] = u != kNoVertexId ? lane(symbols[u], k) : 0;
@@ -385,6 +395,7 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
     } else if (shaped) {
       shaped_parallelogram(n, p, o, shape, placed);
     }
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       const int64_t np = int64_t{n[k]} + p[k];
       const int64_t value = shaped ? placed[k] : np - o[k];
@@ -398,6 +409,7 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
   }
   mean_symbols(begin, end, lanes, symbols, out.local);
   out.reach_bits = static_cast<uint32_t>(std::bit_width(reach));
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) {
     out.spread_bits[k] =
         count > 1 ? static_cast<uint32_t>(std::bit_width(uint64_t(high[k] - low[k]))) : 0;
@@ -405,9 +417,11 @@ inline Prediction predict(uint32_t v, const NewestTriangles& nt, const int32_t* 
   if constexpr (kTwoCodings) mean_symbols(begin, end, other_lanes, other_symbols, other_local);
   if (count > 0) {
     out.kind = count > 1 ? kMultiParallelogram : kParallelogram;
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) out.xyz[k] = rounded_mean(sum[k], count);
   } else {
     out.kind = kNeighbour;
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) out.xyz[k] = rounded_mean(mid[k], 2 * int64_t{entries});
   }
   return out;
@@ -534,6 +548,7 @@ inline Normal parallelogram_normal(uint32_t v, const NewestTriangles& nt, const 
     const int32_t* p = xyz + 3 * size_t{e->p};
     const int32_t* o = xyz + 3 * size_t{e->o};
     uint64_t a[3], b[3];
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       a[k] = uint64_t(int64_t{n[k]} - o[k]);
       b[k] = uint64_t(int64_t{p[k]} - o[k]);
@@ -543,6 +558,7 @@ inline Normal parallelogram_normal(uint32_t v, const NewestTriangles& nt, const 
     normal.xyz[2] += a[0] * b[1] - a[1] * b[0];
   }
   uint64_t size[3];
+  OSTEON_UNROLL
   for (int k = 0; k < 3; ++k) size[k] = magnitude(normal.xyz[k]);
   if ((size[0] | size[1] | size[2]) != 0) {
     const uint32_t axis = size[1] > size[0] ? 1 : 0;
@@ -594,12 +610,14 @@ OSTEON_NOINLINE void curvature_step(uint32_t v, const NewestTriangles& nt, const
       magnitude(normal.xyz[0]) | magnitude(normal.xyz[1]) | magnitude(normal.xyz[2])));
   int64_t n[3];
   int64_t dot = 0, norm = 0;
+  OSTEON_UNROLL
   for (int j = 0; j < 3; ++j) {
     n[j] = static_cast<int64_t>(normal.xyz[j]) >> std::max(width - 12, 0);
     dot += mean[j] * n[j];
     norm += n[j] * n[j];
   }
   const int64_t t = floor_div(weight * dot * (int64_t{1} << 12), norm);
+  OSTEON_UNROLL
   for (int j = 0; j < 3; ++j) base[j] += (t * n[j] + (int64_t{1} << 15)) >> 16;
 }
 
@@ -648,6 +666,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     if (lattice == 0) [[likely]] {
       // The tangent plane's axis codes in contexts of its own (none without the plane).
       const uint32_t plane_axis = tangent_plane ? normal.axis : kNoAxis;
+      OSTEON_UNROLL
       for (int k = 0; k < 3; ++k) {
         const uint32_t kind = ContextModel::axis_kind(pred.kind, k, plane_axis);
         context[k] = model.context(kind, pred.local[k], previous[k], pred, k);
@@ -655,6 +674,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     } else {
       const uint32_t dominant = normal.axis;
       mask = dec.get(cursor, mask_context(dominant, mask & 7));
+      OSTEON_UNROLL
       for (int k = 0; k < 3; ++k) {
         context[k] = ((mask >> k) & 1)
                          ? plane_context(pred.kind, dominant == uint32_t(k), pred.local[k])
@@ -693,6 +713,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     }
     int64_t r[3];
     int64_t base[3];
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       r[k] = unzigzag(kLeadingBits[symbol[k]] | rest[k]);
       base[k] = pred.xyz[k];
@@ -704,6 +725,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
       base[normal.axis] = on_tangent_plane(normal, base[normal.axis], r);
     }
     bool in_range = mask < 8;
+    OSTEON_UNROLL
     for (int k = 0; k < 3; ++k) {
       int64_t value = base[k] + r[k];
       // On a lattice plane: |r| < 2^34 and lattice <= 2^24, so no overflow before the check.
@@ -715,8 +737,7 @@ OSTEON_NOINLINE Status decode_loop(const NewestTriangles& nt, const ContextModel
     }
     symbols[v] = pack_symbols(symbol[0], symbol[1], symbol[2]);
     if (!cursor.ok || !in_range) [[unlikely]] {
-      return error(ErrorCode::kInvalidData, source,
-                   message("geometry: corrupt residual for vertex %", {v}), at_byte(in.offset()));
+      return invalid_data(source, in.offset(), "geometry: ", "corrupt residual for vertex %", {v});
     }
   }
   dec.resume(cursor);
@@ -1091,7 +1112,7 @@ int32_t choose_curvature(const NewestTriangles& nt, const QuantizedPositions& q,
 }  // namespace
 
 GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q,
-                               uint32_t lattice, std::vector<uint8_t>* out) {
+                               uint32_t lattice, std::vector<uint8_t>* out, uint32_t end_state) {
   const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
   assert(nt.first.size() == size_t{vertex_count} + 1 && nt.neighbour.size() == vertex_count);
   const ContextModel model(vertex_count, kStreamVersion);
@@ -1250,19 +1271,16 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
     out->push_back(static_cast<uint8_t>(refine.extrapolation));
     out->push_back(static_cast<uint8_t>(refine.curvature));
   }
-  ByteWriter writer(out);
-  writer.write_varint(kept.lattice);
+  ByteWriter(out).write_varint(kept.lattice);
   kept.enc.reserve(size_t{vertex_count - kept.state.next} * symbols_per_vertex(kept.lattice));
   run(kept, vertex_count, queue(kept.enc));
-  kept.enc.append_to(out);
+  choice.first_state = kept.enc.append_to(out, end_state, /*chained=*/true);
   return choice;
 }
 
-OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
-                                                                const NewestTriangles& nt,
-                                                                uint32_t vertex_count,
-                                                                uint8_t version,
-                                                                const std::string& source) {
+OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(
+    ByteReader& in, const NewestTriangles& nt, uint32_t vertex_count, uint8_t version,
+    const std::string& source, uint32_t* chain, bool more) {
   if (nt.first.size() != size_t{vertex_count} + 1 || nt.neighbour.size() != vertex_count) {
     return error(ErrorCode::kInvalidArgument, source,
                  message("geometry: the connectivity does not have % vertices", {vertex_count}));
@@ -1290,31 +1308,29 @@ OSTEON_COLD_FUNCTION Result<QuantizedPositions> decode_geometry(ByteReader& in,
     refine = {w[2], w[3]};
   }
   if (!known || mode >= (version >= 3 ? 2 * kModes : kModes)) {
-    return error(ErrorCode::kInvalidData, source, "geometry: unknown prediction mode",
-                 at_byte(in.offset()));
+    return invalid_data(source, in.offset(), "geometry: ", "unknown prediction mode");
   }
   uint64_t lattice = 0;  // version 2: the lattice period, 0 for none
   if (version >= 2 && (!in.read_varint(&lattice) || lattice == 1 || lattice > kMaxLattice ||
                        (lattice != 0 && (mode >= kModes || refine.curvature != 0)))) {
-    return error(ErrorCode::kInvalidData, source, "geometry: bad lattice period",
-                 at_byte(in.offset()));
+    return invalid_data(source, in.offset(), "geometry: ", "bad lattice period");
   }
   const ContextModel model(vertex_count, version);
   SymbolDecoder dec;
+  const uint64_t symbols = uint64_t{symbols_per_vertex(lattice)} * vertex_count;
   OSTEON_RETURN_IF_ERROR(dec.init(in, kResidualSymbols,
                                   lattice != 0 ? kLatticeContexts : model.contexts(mode >= kModes),
-                                  source, "geometry"));
-  if (dec.symbols_left() != uint64_t{symbols_per_vertex(lattice)} * vertex_count) {
-    return error(
-        ErrorCode::kInvalidData, source,
-        message("geometry: % residual symbols for % vertices", {dec.symbols_left(), vertex_count}),
-        at_byte(in.offset()));
+                                  {version, symbols, *chain, more}, source, "geometry"));
+  if (dec.symbols_left() != symbols) {
+    return invalid_data(source, in.offset(), "geometry: ", "% residual symbols for % vertices",
+                        {dec.symbols_left(), vertex_count});
   }
   QuantizedPositions q;
   q.xyz.resize(size_t{vertex_count} * 3);
   OSTEON_RETURN_IF_ERROR(decode_loop(nt, model, PredictionMode(mode % kModes), shape, refine,
                                      mode >= kModes, int64_t(lattice), dec, in, source, &q));
   OSTEON_RETURN_IF_ERROR(dec.finish(source, "geometry"));
+  *chain = dec.last_state();
   return q;
 }
 

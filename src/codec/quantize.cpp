@@ -144,6 +144,15 @@ void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* 
   }
 }
 
+/// The largest float at most `step` (or `step` itself where no positive finite float is): a step
+/// that is a float takes 4 bytes of a stream's header instead of 8 (docs/FORMAT.md), and a step
+/// no larger keeps every error bound the step was chosen for.
+double float_step(double step) {
+  float f = static_cast<float>(step);
+  if (double(f) > step) f = std::nextafter(f, 0.0f);
+  return f > 0 && std::isfinite(f) ? double(f) : step;
+}
+
 }  // namespace
 
 Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
@@ -171,6 +180,7 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
     grid.origin = lo;
     grid.step = 2.0 * options.precision;
     fit_lattice(positions, lo, &grid);
+    if (grid.lattice == 0) grid.step = float_step(grid.step);
   } else {
     if (options.bits < 8 || options.bits > 24) {
       return error(ErrorCode::kInvalidArgument, "",
@@ -179,6 +189,7 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
     grid.origin = lo;
     grid.step = side > 0 ? side / double((uint32_t{1} << options.bits) - 1) : 1.0;
     if (side > 0) fit_lattice(positions, lo, &grid);
+    if (grid.lattice == 0) grid.step = float_step(grid.step);
   }
   // Every quantized coordinate must stay within +-2^30 so that residuals fit 32 bits.
   double reach =

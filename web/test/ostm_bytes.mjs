@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
 // The bytes of .ostm streams (docs/FORMAT.md, "Mesh stream"), for tests that corrupt them: the
-// checksum, and version 7's header counts (two varints after the flags byte).
+// checksum, and the header counts of versions 7 and 8 (two varints after the flags byte).
 
 /// CRC-32 (IEEE, reflected), the stream's trailer.
 export function crc32(bytes) {
@@ -26,7 +26,7 @@ function varint(value) {
   return [...out, value];
 }
 
-/// A version-7 stream's counts: { vertices, triangles, end } (end: the byte after them).
+/// A version-7 or -8 stream's counts: { vertices, triangles, end } (end: the byte after them).
 export function headerCounts(stream) {
   const counts = [];
   let at = 6;
@@ -42,7 +42,7 @@ export function headerCounts(stream) {
   return { vertices: counts[0], triangles: counts[1], end: at };
 }
 
-/// A copy of version-7 `stream` declaring `vertices` and `triangles`, its checksum set. With
+/// A copy of version-7 or -8 `stream` declaring `vertices` and `triangles`, its checksum set. With
 /// `keepLength` it keeps the stream's length: what the longer varints add comes off the end of
 /// the geometry section, which a decoder refusing the counts never reaches.
 export function withCounts(stream, vertices, triangles, { keepLength = false } = {}) {

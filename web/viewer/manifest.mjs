@@ -16,7 +16,7 @@ const kUnits = new Set(['mm', 'cm', 'm', 'in', 'unknown']);
 /// The newest .ostm stream version the decoder built beside this viewer (web/decoder) reads: the
 /// C++ kStreamVersion (include/osteon/codec.hpp). A package's manifest records its streams'
 /// version, so a viewer too old for them says so before fetching anything.
-export const kStreamVersion = 7;
+export const kStreamVersion = 8;
 
 /// The most languages, groups and group levels a manifest may hold (docs/FORMAT.md, "Groups and
 /// languages"); the C++ parser's kMaxLanguages, kMaxGroups, kMaxGroupDepth.
