@@ -10,14 +10,6 @@
 #else
 #define OSTEON_COLD_FUNCTION
 #endif
-// Before a cold loop: not unrolled. The compiler unrolls some loops even in minsize functions
-// once they are inlined into others, and unrolled cold loops (tables, varints, error paths) took
-// about 1.5 KB of the WebAssembly decoder; the hot loops keep their unrolling.
-#if defined(__clang__)
-#define OSTEON_NO_UNROLL _Pragma("clang loop unroll(disable)")
-#else
-#define OSTEON_NO_UNROLL
-#endif
 // Before a hot loop over a point's axes or a triangle's corners: unrolled in full. The
 // WebAssembly decoder is built without unrolling (-fno-unroll-loops: 0.6 KB less download, its
 // cold loops rolled up), so the loops that set its speed say so themselves.

@@ -114,12 +114,10 @@ OSTEON_NOINLINE OSTEON_COLD_FUNCTION Status read_header(const uint8_t* data, siz
     ok = in.read_varint(&vertices) && in.read_varint(&triangles);
     grid_at = in.offset();
     for (float& o : compact) ok = ok && in.read_le(&o);
-    uint32_t float_step = 0;  // flags bit 1: the step as a float
+    float float_step = 0;  // flags bit 1: the step as a float
     if ((flags & detail::kFlagFloatStep) != 0) {
       ok = ok && in.read_le(&float_step);
-      float step = 0;
-      std::memcpy(&step, &float_step, sizeof step);
-      h->grid.step = step;
+      h->grid.step = float_step;
     } else {
       ok = ok && in.read_le(&h->grid.step);
     }

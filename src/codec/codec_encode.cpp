@@ -108,22 +108,20 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   std::vector<uint8_t> geometry;
   const detail::GeometryChoice chosen =
       detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry, chain);
-  if (connectivity.symbols.has_value()) {
-    connectivity.bytes.resize(connectivity.symbols_at);
-    connectivity.symbols->append_to(&connectivity.bytes, chosen.first_state);
-  }
+  std::vector<uint8_t> connectivity_bytes = std::move(connectivity.prefix);
+  connectivity.symbols->append_to(&connectivity_bytes, chosen.first_state);
 
   // The compact header (docs/FORMAT.md): a small mesh's stream is a few hundred bytes, of
   // which version 6's fixed fields took 64 with the checksum.
   std::vector<uint8_t> out;
   out.reserve(detail::kCompactHeaderBytes + 16 /* the varints' further bytes */ +
-              connectivity.bytes.size() + geometry.size() + normals.size() +
+              connectivity_bytes.size() + geometry.size() + normals.size() +
               detail::kStreamChecksumBytes);
   ByteWriter writer(&out);
   writer.write_bytes(detail::kStreamMagic, 4);
   writer.write_le<uint8_t>(detail::kStreamVersion);
   // A step that is a float (choose_grid makes it one when it picks the grid) is stored as one.
-  const bool float_step = double(float(grid.step)) == grid.step;
+  const bool float_step = detail::is_float(grid.step);
   writer.write_le<uint8_t>((normals.empty() ? 0 : detail::kFlagNormals) |
                            (float_step ? detail::kFlagFloatStep : 0));
   writer.write_varint(vertex_count);
@@ -136,16 +134,16 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   } else {
     writer.write_le<double>(grid.step);
   }
-  writer.write_varint(connectivity.bytes.size());
+  writer.write_varint(connectivity_bytes.size());
   if (!normals.empty()) writer.write_varint(normals.size());
-  writer.write_bytes(connectivity.bytes.data(), connectivity.bytes.size());
+  writer.write_bytes(connectivity_bytes.data(), connectivity_bytes.size());
   writer.write_bytes(geometry.data(), geometry.size());
   writer.write_bytes(normals.data(), normals.size());
   writer.write_le<uint32_t>(detail::crc32(out.data(), out.size()));
 
   if (report != nullptr) {
     r.bytes = out.size();
-    r.connectivity_bytes = connectivity.bytes.size();
+    r.connectivity_bytes = connectivity_bytes.size();
     r.geometry_bytes = geometry.size();
     r.prediction_mode = chosen.mode;
     r.shape_scale = chosen.shape_scale;

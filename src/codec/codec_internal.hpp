@@ -2,8 +2,10 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #include "codec/code_placement.hpp"
 
@@ -27,6 +29,11 @@ constexpr size_t kCompactHeaderBytes = 4 + 1 + 1 + 1 + 1 + 3 * 4 + 4 + 1;
 /// f32, which it equals exactly.
 constexpr uint8_t kFlagNormals = 1;
 constexpr uint8_t kFlagFloatStep = 2;
+/// Whether `value` is exactly a float (a step the header can store in 4 bytes; out of a float's
+/// range the conversion itself would be undefined).
+inline bool is_float(double value) {
+  return std::fabs(value) <= std::numeric_limits<float>::max() && double(float(value)) == value;
+}
 constexpr size_t kStreamChecksumBytes = 4;
 /// A stream may describe at most this many triangles per byte of its own size: far above what
 /// any real mesh reaches (a few bits per triangle), and it bounds what hostile bytes can allocate.

@@ -55,11 +55,10 @@ struct DecodedConnectivity {
 };
 
 struct ConnectivityEncoding {
-  /// The connectivity section (layout in docs/FORMAT.md), its symbol section ending at kRansLow.
-  std::vector<uint8_t> bytes;
-  /// Where its symbol section begins in `bytes`, and its symbols: encode() writes the symbol
-  /// section again, chained to the geometry's (SymbolEncoder::append_to). Empty without symbols.
-  size_t symbols_at = 0;
+  /// The connectivity section (layout in docs/FORMAT.md) up to its symbol section, and its
+  /// symbols, planned (set on success). The section is `prefix`, then `symbols->append_to()`:
+  /// written last, once the geometry's first rANS state, where the chain ends, is known.
+  std::vector<uint8_t> prefix;
   std::optional<SymbolEncoder> symbols;
   /// The triangles exactly as decode_connectivity will return them (same order, same corner
   /// rotation), in decoded vertex ids, and their newest triangles as it returns them.

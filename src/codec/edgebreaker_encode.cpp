@@ -314,8 +314,7 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   }
   // The section (docs/FORMAT.md, "Connectivity section"): the head byte says which of the counts
   // that are usually 0 (events, dummies, glue) or 1 (components) follow.
-  std::vector<uint8_t>& bytes = out.bytes;
-  ByteWriter writer(&bytes);
+  ByteWriter writer(&out.prefix);
   const uint8_t head = static_cast<uint8_t>(
       best_model | (events.empty() ? 0 : kHeadEvents) | (dummies.empty() ? 0 : kHeadDummies) |
       (glue.empty() ? 0 : kHeadGlue) | (components == 1 ? 0 : kHeadComponents));
@@ -352,8 +351,6 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
     coder.put(context_of_slot[slot_of_symbol[k]], decoded_symbols[k]);
   }
   coder.use_plan(std::move(best_plan));
-  out.symbols_at = bytes.size();
-  coder.append_to(&bytes);
   out.symbols.emplace(std::move(coder));
   return out;
 }

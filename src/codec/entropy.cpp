@@ -867,10 +867,14 @@ OSTEON_NOINLINE OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, 
     const std::vector<WeightTable>& models = tables.models;
     at = in.offset();
     // Version 8: the rANS bytes are what the raw bits leave; one state for a short section.
-    uint64_t rans_bytes = in.remaining() - std::min<uint64_t>(in.remaining(), bit_bytes);
+    uint64_t rans_bytes = 0;
+    if (compact) {
+      rans_bytes = in.remaining() - std::min<uint64_t>(in.remaining(), bit_bytes);
+    } else if (!in.read_varint(&rans_bytes)) {
+      return bad(at, "truncated rANS byte count");
+    }
     const uint32_t states = compact ? states_for(symbols) : kStates;
     const uint32_t first = chained ? 1 : 0;  // state 0 handed over, not written
-    if (!compact && !in.read_varint(&rans_bytes)) return bad(at, "truncated rANS byte count");
     if (rans_bytes < 4 * (states - first) || !in.fits(rans_bytes, 1) ||
         in.remaining() - rans_bytes < bit_bytes) {
       return bad(at, "% rANS bytes, % bytes remain for them and % raw bytes",

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -144,13 +145,14 @@ void fit_lattice(const std::vector<Vec3>& positions, Vec3 lo, QuantizationGrid* 
   }
 }
 
-/// The largest float at most `step` (or `step` itself where no positive finite float is): a step
-/// that is a float takes 4 bytes of a stream's header instead of 8 (docs/FORMAT.md), and a step
-/// no larger keeps every error bound the step was chosen for.
+/// The largest float at most `step` (or `step` itself where no positive float is): a step that is
+/// a float takes 4 bytes of a stream's header instead of 8 (docs/FORMAT.md), and a step no larger
+/// keeps every error bound the step was chosen for.
 double float_step(double step) {
+  if (!(step <= std::numeric_limits<float>::max())) return step;  // and NaN: the caller refuses it
   float f = static_cast<float>(step);
   if (double(f) > step) f = std::nextafter(f, 0.0f);
-  return f > 0 && std::isfinite(f) ? double(f) : step;
+  return f > 0 ? double(f) : step;
 }
 
 }  // namespace
