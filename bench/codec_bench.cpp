@@ -18,6 +18,7 @@
 
 #include <draco/core/draco_version.h>
 #include <meshoptimizer.h>
+#include <openssl/evp.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -200,14 +201,45 @@ std::vector<Group> find_groups(const fs::path& data, int largest_parts) {
 
 // ---- the codecs ----------------------------------------------------------------------------
 
+/// The SHA-256 of each array a decode returns (positions and normals as float32, indices as
+/// uint32: their bytes, little-endian), in hex, as bench/codec_wasm.mjs prints them.
+struct DecodedDigests {
+  std::string positions, indices, normals;
+  bool operator==(const DecodedDigests&) const = default;
+};
+
+std::string sha256_hex(const void* data, size_t size) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  EVP_Digest(data, size, digest, &length, EVP_sha256(), nullptr);
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) {
+    static constexpr char kHex[] = "0123456789abcdef";
+    hex += kHex[digest[i] >> 4];
+    hex += kHex[digest[i] & 15];
+  }
+  return hex;
+}
+
+DecodedDigests digests(const osteon::Mesh& mesh) {
+  static_assert(sizeof(osteon::Vec3) == 3 * sizeof(float), "positions are float[3 * n]");
+  return {sha256_hex(mesh.positions.data(), mesh.positions.size() * sizeof(osteon::Vec3)),
+          sha256_hex(mesh.indices.data(), mesh.indices.size() * sizeof(uint32_t)),
+          sha256_hex(mesh.normals.data(), mesh.normals.size() * sizeof(osteon::Vec3))};
+}
+
 struct OsteonResult {
   std::string error;  ///< empty on success
   osteon::EncodeReport report;
   double encode_ms = 0, decode_ms = 0;
   size_t decoded_triangles = 0;
-  std::string stream;  ///< where the stream was written (empty: not written)
+  DecodedDigests native;  ///< of the native decode
+  std::string stream;     ///< where the stream was written (empty: not written)
   double wasm_ms = -1;
   std::string wasm_error;
+  /// The WebAssembly decode's arrays against the native decode's: "" when not compared, else
+  /// "identical" or the arrays that differ.
+  std::string wasm_identity;
 };
 
 struct Row {
@@ -252,6 +284,8 @@ OsteonResult run_osteon(const osteon::Mesh& mesh, int bits, const Timing& timing
     return true;
   });
   if (!r.error.empty()) return r;
+  auto decoded = osteon::decode(bytes.data(), bytes.size(), fs::path(stream).filename().string());
+  if (decoded.ok()) r.native = digests(*decoded);
   if (r.decoded_triangles != r.report.triangles)
     r.error = "decoded " + std::to_string(r.decoded_triangles) + " triangles, coded " +
               std::to_string(r.report.triangles);
@@ -358,6 +392,19 @@ void merge_wasm(const WasmRun& run, std::vector<Row>& rows) {
   for (Row& row : rows) {
     fill(row.osteon.stream, row.osteon.decoded_triangles, row.osteon.wasm_ms,
          row.osteon.wasm_error);
+    auto decoded = by_file.find(row.osteon.stream);
+    if (row.osteon.wasm_ms >= 0 && decoded != by_file.end() &&
+        decoded->second->contains("sha256")) {
+      const json& h = (*decoded->second)["sha256"];
+      const DecodedDigests wasm{h.value("positions", ""), h.value("indices", ""),
+                                h.value("normals", "")};
+      const DecodedDigests& native = row.osteon.native;
+      std::string differ;
+      if (wasm.positions != native.positions) differ += " positions";
+      if (wasm.indices != native.indices) differ += " indices";
+      if (wasm.normals != native.normals) differ += " normals";
+      row.osteon.wasm_identity = differ.empty() ? "identical" : "differ:" + differ;
+    }
     for (DracoResult& d : row.draco.level)
       fill(d.stream, d.decoded_triangles, d.wasm_ms, d.wasm_error);
     MeshoptResult& m = row.meshopt;
@@ -826,6 +873,32 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
     target("exact", meshes ? std::optional<bool>(exact == meshes) : std::nullopt, detail);
   }
 
+  {  // The WebAssembly decoder gives the native decoder's arrays, bit for bit.
+    size_t compared = 0, identical = 0;
+    std::string misses;
+    for (const Row& r : rows) {
+      if (r.osteon.wasm_identity.empty()) continue;
+      ++compared;
+      if (r.osteon.wasm_identity == "identical") {
+        ++identical;
+      } else if (misses.size() < 400) {
+        misses += " " + r.label + " (" + r.osteon.wasm_identity + ")";
+      }
+    }
+    size_t coded = 0;
+    for (const Row& r : rows) coded += osteon_ok(r) ? 1 : 0;
+    std::string detail = std::to_string(identical) + " of " + std::to_string(coded) +
+                         " meshes decoded by the WebAssembly decoder to the native decoder's "
+                         "positions, indices and smooth normals, bit for bit (SHA-256 of each "
+                         "array)";
+    if (compared < coded) {
+      detail += "; " + std::to_string(coded - compared) + " not compared (no WASM decode)";
+    }
+    if (!misses.empty()) detail += "; differ:" + misses;
+    target("WASM decoder bit-identical to the native one",
+           compared ? std::optional<bool>(identical == coded) : std::nullopt, detail);
+  }
+
   // Peers that were not measured.
   std::vector<std::string> notes;
   if (!wasm.unavailable.empty()) notes.push_back("WASM decoders: " + wasm.unavailable);
@@ -1040,7 +1113,8 @@ int main(int argc, char** argv) {
                      {"encode_ms", r.osteon.encode_ms},
                      {"decode_ms", r.osteon.decode_ms},
                      {"wasm_decode_ms", r.osteon.wasm_ms},
-                     {"wasm_error", r.osteon.wasm_error}};
+                     {"wasm_error", r.osteon.wasm_error},
+                     {"wasm_identity", r.osteon.wasm_identity}};
       for (int i = 0; i < 2; ++i)
         j["draco_cl" + std::to_string(kDracoLevels[i])] = {
             {"error", r.draco.level[i].error},

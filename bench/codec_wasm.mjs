@@ -9,8 +9,10 @@
 // meshoptimizer (loadMeshopt). Prints one JSON object:
 //   { node, draco3d: {version} | {unavailable}, osteon: {module} | {unavailable},
 //     meshoptimizer: {version, vertex_codec, level} | {unavailable},
-//     results: [{ file, codec, ms, runs, triangles, vertices[, bytes] } | { file, codec, error }] }
-// (bytes: meshoptimizer's gzipped stream.)
+//     results: [{ file, codec, ms, runs, triangles, vertices[, bytes][, sha256] }
+//               | { file, codec, error }] }
+// (bytes: meshoptimizer's gzipped stream; sha256: osteon's decoded positions, indices and
+// normals, each array's bytes hashed, for the bench to compare with the native decoder's.)
 // A decoder that cannot be loaded leaves its files with `error` and names the reason in
 // `unavailable`. The osteon decoder is the first of --decoder DIR, $OSTEON_WASM_DIR, build/wasm
 // (web/decoder/build.sh's output) and web/decoder that holds osteon_decoder.mjs and .wasm.
@@ -24,6 +26,7 @@
 // decoding per file; the first decode of each file (compilation tiers, memory growth) counts
 // like the others, and is usually the slowest.
 
+import { createHash } from 'node:crypto';
 import { readFile } from 'node:fs/promises';
 import { gunzipSync, gzipSync } from 'node:zlib';
 import { existsSync } from 'node:fs';
@@ -200,7 +203,7 @@ async function loadOsteon(dir) {
       module: module.startsWith(root + path.sep) ? path.relative(root, module) : module,
       decode(bytes) {
         const mesh = decoder.decode(bytes);
-        return { triangles: mesh.triangleCount, vertices: mesh.vertexCount };
+        return { triangles: mesh.triangleCount, vertices: mesh.vertexCount, mesh };
       },
     };
   } catch (e) {
@@ -208,19 +211,28 @@ async function loadOsteon(dir) {
   }
 }
 
+/// The SHA-256 of each array a decode returned (the bytes of its float32 or uint32 elements),
+/// in hex: bench/codec_bench compares them with the native decoder's.
+function digests(mesh) {
+  const hex = (array) => createHash('sha256')
+    .update(new Uint8Array(array.buffer, array.byteOffset, array.byteLength)).digest('hex');
+  return { positions: hex(mesh.positions), indices: hex(mesh.indices), normals: hex(mesh.normals) };
+}
+
 function timeDecodes(decode, bytes, repeat, minMs) {
   let best = Infinity;
   let total = 0;
   let runs = 0;
-  let counts;
+  let last;
   for (; runs < repeat || (total < minMs && runs < 200); ++runs) {
     const start = performance.now();
-    counts = decode(bytes);
+    last = decode(bytes);
     const ms = performance.now() - start;
     best = Math.min(best, ms);
     total += ms;
   }
-  return { ms: best, runs, ...counts };
+  const { mesh, ...counts } = last;
+  return { ms: best, runs, ...counts, ...(mesh ? { sha256: digests(mesh) } : {}) };
 }
 
 async function main() {
