@@ -717,6 +717,77 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
        << over.str() << "\n";
   }
 
+  // What the meshes that encode slower than Draco cl7 spend it on: each mesh of a group whose
+  // sum misses the encode target, and each ct-like mesh that misses it, where osteon is slower.
+  std::ostringstream slower;
+  for (const auto& [g, in_group] : by_group) {
+    Totals gt = totals(in_group);
+    for (const Row* r : in_group) {
+      if (!comparable(*r) || r->triangles == 0) continue;
+      const bool group_misses = gt.meshes > 0 && gt.osteon_enc > gt.cl7_enc;
+      if (!(group_misses || r->group == "ct-like")) continue;
+      if (r->osteon.encode_ms <= r->draco.level[0].encode_ms) continue;
+      const osteon::EncodeReport& e = r->osteon.report;
+      const double t = double(r->triangles);
+      slower << "| " << r->group << " " << r->label << " | " << r->triangles << " | "
+             << ms_text(r->osteon.encode_ms) << " / " << ms_text(r->draco.level[0].encode_ms)
+             << " | " << fixed(1e6 * r->osteon.encode_ms / t, 0) << " / "
+             << fixed(1e6 * r->draco.level[0].encode_ms / t, 0) << " | "
+             << fixed(e.geometry_passes, 2) << " | " << e.connectivity_models << " | "
+             << (e.geometry_passes >= 1.5
+                     ? "the search: " + fixed(e.geometry_passes, 1) +
+                           " passes of geometry prediction and " +
+                           std::to_string(e.connectivity_models) +
+                           " connectivity models planned, where Draco cl7 codes once"
+                     : "the coding itself: one pass of geometry prediction, slower a vertex "
+                       "than Draco cl7's")
+             << " |\n";
+    }
+  }
+  if (!slower.str().empty()) {
+    md << "### Slower to encode than Draco cl7: where the time goes\n\n"
+       << "Each mesh that encodes slower than Draco cl7 in a group whose sum misses the encode "
+          "target (and each ct-like mesh that misses it). Passes: the vertices osteon's encoder "
+          "predicted in every geometry coding it measured before choosing one, and in the one it "
+          "kept, over the vertex count (EncodeReport::geometry_passes; 1 is one pass). Models: the "
+          "connectivity context models whose tables it planned (EncodeReport::"
+          "connectivity_models).\n\n"
+       << "| mesh | triangles | enc ms, osteon / Draco cl7 | ns a triangle, osteon / Draco cl7 | "
+          "passes | models | why |\n|---|---:|---:|---:|---:|---:|---|\n"
+       << slower.str() << "\n";
+  }
+
+  // Why the ct-like meshes decode under the WASM target: the native decoder's own rate beside.
+  std::ostringstream slow_decode;
+  for (const Row* r : ct) {
+    if (!osteon_ok(*r) || r->osteon.wasm_ms <= 0 || r->osteon.decode_ms <= 0) continue;
+    const double t = double(r->triangles), wasm_rate = t / (r->osteon.wasm_ms / 1e3);
+    if (wasm_rate >= kWasmTrianglesPerSecond) continue;
+    const double native_rate = t / (r->osteon.decode_ms / 1e3);
+    auto rate = [&](double ms) { return ms > 0 ? fixed(t / ms / 1e3, 1) : std::string("n/a"); };
+    slow_decode
+        << "| " << r->label << " | " << fixed(wasm_rate / 1e6, 1) << " | "
+        << fixed(native_rate / 1e6, 1) << " | " << rate(r->draco.level[0].wasm_ms) << " | "
+        << rate(r->meshopt.v1_wasm_ms) << " | "
+        << (native_rate < kWasmTrianglesPerSecond
+                ? "the native decoder is under the target too (" + fixed(native_rate / 1e6, 1) +
+                      "M): each vertex's prediction and residual contexts wait on its decoded "
+                      "neighbours (docs/DESIGN.md, \"Decode speed\")"
+                : "WebAssembly " + fixed(r->osteon.wasm_ms / r->osteon.decode_ms, 2) +
+                      "x the native decode time") +
+               " |\n";
+  }
+  if (!slow_decode.str().empty()) {
+    md << "### Under the decode target: why\n\n"
+       << "Each ct-like mesh decoded under " << fixed(kWasmTrianglesPerSecond / 1e6, 0)
+       << "M triangles/s by osteon's WebAssembly decoder, in M triangles/s, beside its native "
+          "decoder's rate (same stream, same machine) and the WebAssembly peers' (meshopt 1.x: "
+          "gunzip included).\n\n"
+       << "| mesh | osteon WASM | osteon native | Draco cl7 WASM | meshopt 1.x WASM | why |\n"
+          "|---|---:|---:|---:|---:|---|\n"
+       << slow_decode.str() << "\n";
+  }
+
   // Targets, each computed.
   md << "### Targets (at " << bits << "-bit positions)\n\n";
   auto target = [&](const std::string& name, std::optional<bool> met, const std::string& detail) {
@@ -1114,7 +1185,9 @@ int main(int argc, char** argv) {
                      {"decode_ms", r.osteon.decode_ms},
                      {"wasm_decode_ms", r.osteon.wasm_ms},
                      {"wasm_error", r.osteon.wasm_error},
-                     {"wasm_identity", r.osteon.wasm_identity}};
+                     {"wasm_identity", r.osteon.wasm_identity},
+                     {"geometry_passes", r.osteon.report.geometry_passes},
+                     {"connectivity_models", r.osteon.report.connectivity_models}};
       for (int i = 0; i < 2; ++i)
         j["draco_cl" + std::to_string(kDracoLevels[i])] = {
             {"error", r.draco.level[i].error},

@@ -142,6 +142,22 @@ TEST(Codec, LatticeSurfacesCodeOnTheLattice) {
   expect_round_trip(sphere, precise);
 }
 
+// The report says what the encoder's search cost: a small mesh has each of its four plain
+// codings (two parallelogram modes, with and without the tangent plane) measured on every vertex;
+// a large one measures them on a prefix and codes the rest once.
+TEST(Codec, ReportsTheSearchsWork) {
+  EncodeReport small;
+  ASSERT_TRUE(encode(make_icosphere(2, 50.0f), {}, &small).ok());  // 162 vertices
+  EXPECT_GE(small.geometry_passes, 4.0);
+  EXPECT_LE(small.geometry_passes, 5.0);  // at most one more coding, for the curvature step
+  EXPECT_EQ(small.connectivity_models, 4);
+  EncodeReport large;
+  ASSERT_TRUE(encode(make_icosphere(6, 50.0f), {}, &large).ok());  // 40,962 vertices
+  EXPECT_GE(large.geometry_passes, 1.0);
+  EXPECT_LT(large.geometry_passes, 2.0);
+  EXPECT_EQ(large.connectivity_models, 4);  // the two large models wait for 200,000 symbols
+}
+
 TEST(Codec, BitsAndPrecisionSetTheGridStep) {
   Mesh sphere = make_icosphere(3, 50.0f);
   for (int bits : {8, 12, 16, 20, 24}) {

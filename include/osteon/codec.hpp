@@ -78,6 +78,12 @@ struct EncodeReport {
   /// parallelogram's prediction adds.
   int extrapolation = 0;
   int curvature = 0;
+  /// The encoder's search, as work done: the vertices predicted by every geometry coding it
+  /// measured and by the one it kept, over the vertex count (1 would be a single pass; a small
+  /// mesh has its candidate codings measured on every vertex), and the connectivity context
+  /// models whose tables it planned to keep the smallest.
+  double geometry_passes = 0;
+  int connectivity_models = 0;
   double grid_step = 0;
   QuantizationGrid grid;
 };

@@ -150,6 +150,8 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
     r.shape_apex = chosen.shape_apex;
     r.extrapolation = chosen.extrapolation;
     r.curvature = chosen.curvature;
+    r.geometry_passes = vertex_count > 0 ? double(chosen.predicted) / vertex_count : 0;
+    r.connectivity_models = static_cast<int>(connectivity.models_planned);
     r.normal_bytes = normals.size();
     r.vertices = vertex_count;
     r.triangles = mesh.triangle_count();

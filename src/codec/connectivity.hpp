@@ -66,6 +66,8 @@ struct ConnectivityEncoding {
   NewestTriangles decoded_newest;
   /// vertex_order[d] = the input vertex id of decoded vertex d. Decoded ids are 0..V-1.
   std::vector<uint32_t> vertex_order;
+  /// The context models whose tables were planned to choose the smallest.
+  uint32_t models_planned = 0;
 };
 
 /// Encodes `indices` (3 per triangle, every index < vertex_count, no triangle repeating an index,

@@ -288,6 +288,7 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   uint32_t best_model = 0;
   SymbolPlan best_plan;
   const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
+  out.models_planned = models;
   std::vector<uint32_t> counts;
   std::vector<uint32_t> order;  // the model's contexts that occur, by first symbol
   std::vector<uint8_t> seen;

@@ -55,6 +55,9 @@ struct GeometryChoice {
   int extrapolation = 0;
   int curvature = 0;
   uint32_t first_state = 0;
+  /// Vertices predicted by every coding measured and by the one kept (the search's work; the
+  /// vertex count where the first coding measured is the one kept throughout).
+  uint64_t predicted = 0;
 };
 GeometryChoice encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
                                uint32_t lattice, std::vector<uint8_t>* out,

@@ -1274,6 +1274,7 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
   ByteWriter(out).write_varint(kept.lattice);
   kept.enc.reserve(size_t{vertex_count - kept.state.next} * symbols_per_vertex(kept.lattice));
   run(kept, vertex_count, queue(kept.enc));
+  for (const Coding& coding : codings) choice.predicted += coding.state.next;
   choice.first_state = kept.enc.append_to(out, end_state, /*chained=*/true);
   return choice;
 }
