@@ -240,6 +240,10 @@ struct OsteonResult {
   /// The WebAssembly decode's arrays against the native decode's: "" when not compared, else
   /// "identical" or the arrays that differ.
   std::string wasm_identity;
+  /// The same mesh at EncodeOptions::effort 0 (no search), timed like the default.
+  osteon::EncodeReport fast;
+  double fast_encode_ms = 0;
+  std::string fast_error;  ///< empty on success (decoded to as many triangles)
 };
 
 struct Row {
@@ -286,6 +290,28 @@ OsteonResult run_osteon(const osteon::Mesh& mesh, int bits, const Timing& timing
   if (!r.error.empty()) return r;
   auto decoded = osteon::decode(bytes.data(), bytes.size(), fs::path(stream).filename().string());
   if (decoded.ok()) r.native = digests(*decoded);
+  // Effort 0: the encoder without its search.
+  osteon::EncodeOptions fast = options;
+  fast.effort = 0;
+  std::vector<uint8_t> fast_bytes;
+  r.fast_encode_ms = best_ms(timing, [&] {
+    auto encoded = osteon::encode(mesh, fast, &r.fast);
+    if (!encoded.ok()) {
+      r.fast_error = "encode: " + encoded.status().message();
+      return false;
+    }
+    fast_bytes = std::move(encoded).value();
+    return true;
+  });
+  if (r.fast_error.empty()) {
+    auto back = osteon::decode(fast_bytes.data(), fast_bytes.size(), "effort 0");
+    if (!back.ok()) {
+      r.fast_error = "decode: " + back.status().message();
+    } else if (back->triangle_count() != r.fast.triangles) {
+      r.fast_error = "decoded " + std::to_string(back->triangle_count()) + " triangles, coded " +
+                     std::to_string(r.fast.triangles);
+    }
+  }
   if (r.decoded_triangles != r.report.triangles)
     r.error = "decoded " + std::to_string(r.decoded_triangles) + " triangles, coded " +
               std::to_string(r.report.triangles);
@@ -511,6 +537,8 @@ struct Totals {
   double osteon_dec = 0, cl7_dec = 0;
   double osteon_wasm = 0, cl7_wasm = 0, cl10_wasm = 0, meshopt_v1_wasm = 0;
   bool wasm_osteon = true, wasm_draco = true, wasm_meshopt = true;
+  double fast = 0, fast_enc = 0;  // effort 0
+  bool fast_ok = true;
 };
 
 bool comparable(const Row& r) {
@@ -540,6 +568,9 @@ Totals totals(const std::vector<const Row*>& rows) {
     t.osteon_wasm += r.osteon.wasm_ms;
     t.cl7_wasm += r.draco.level[0].wasm_ms;
     t.cl10_wasm += r.draco.level[1].wasm_ms;
+    t.fast_ok = t.fast_ok && r.osteon.fast_error.empty();
+    t.fast += double(r.osteon.fast.bytes);
+    t.fast_enc += r.osteon.fast_encode_ms;
   }
   return t;
 }
@@ -788,6 +819,29 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
        << slow_decode.str() << "\n";
   }
 
+  // The encoder without its search (EncodeOptions::effort 0), against the default and the peers.
+  {
+    auto fast_row = [&](const std::string& label, const Totals& t) {
+      if (t.meshes == 0 || !t.fast_ok)
+        return "| " + label + " | " + std::to_string(t.meshes) + " | n/a | n/a | n/a | n/a |\n";
+      return "| " + label + " | " + std::to_string(t.meshes) + " | " + kb(t.osteon) + " / " +
+             kb(t.fast) + " | " + fixed(t.fast / t.osteon, 3) + " | " + fixed(t.fast / t.cl10, 3) +
+             " / " + fixed(t.fast / t.cl7, 3) + " | " + ms_text(t.osteon_enc) + " / " +
+             ms_text(t.fast_enc) + " / " + ms_text(t.cl7_enc) + " |\n";
+    };
+    md << "### Effort 0: the encoder without its search\n\n"
+       << "osteon encode's `--effort 0` (EncodeOptions::effort): one coding chosen up front (the "
+          "mean of the parallelograms on the tangent plane, or lattice coding on a lattice; the "
+          "plain parallelogram; a fixed extrapolation weight; one connectivity context model), "
+          "the same decoder. Every mesh again, timed like the default.\n\n"
+       << "| set | meshes | osteon KB, default / effort 0 | effort 0 / default | effort 0 / "
+          "Draco cl10 / cl7 | enc ms, default / effort 0 / Draco cl7 |\n"
+       << "|---|---:|---:|---:|---:|---:|\n";
+    for (const Row* r : ct) md << fast_row("ct-like " + r->label, totals({r}));
+    for (const auto& [g, in_group] : by_group) md << fast_row("all " + g->name, totals(in_group));
+    md << fast_row("**all meshes**", totals(all)) << "\n";
+  }
+
   // Targets, each computed.
   md << "### Targets (at " << bits << "-bit positions)\n\n";
   auto target = [&](const std::string& name, std::optional<bool> met, const std::string& detail) {
@@ -901,6 +955,39 @@ Report build_report(const std::vector<Row>& rows, const std::vector<Group>& grou
     detail += std::to_string(faster) + " of " + std::to_string(t.meshes) +
               " meshes encode no slower than Draco cl7";
     target("encode no slower than Draco cl7 (each ct-like mesh and each group's sum)",
+           t.meshes ? std::optional<bool>(met) : std::nullopt, detail);
+  }
+  {  // The same at effort 0 (no search), with what it costs in bytes.
+    Totals t = totals(all);
+    bool met = t.meshes > 0 && t.fast_ok;
+    std::string detail;
+    for (const Row* r : ct) {
+      if (!comparable(*r) || !r->osteon.fast_error.empty()) continue;
+      met = met && r->osteon.fast_encode_ms <= r->draco.level[0].encode_ms;
+      detail += r->label + " " + ms_text(r->osteon.fast_encode_ms) + " vs " +
+                ms_text(r->draco.level[0].encode_ms) + " ms; ";
+    }
+    for (const auto& [g, in_group] : by_group) {
+      Totals gt = totals(in_group);
+      if (gt.meshes == 0) continue;
+      met = met && gt.fast_ok && gt.fast_enc <= gt.cl7_enc;
+      detail += "all " + g->name + " " + ms_text(gt.fast_enc) + " vs " + ms_text(gt.cl7_enc) +
+                " ms (" + fixed(gt.fast / gt.cl10, 3) + "x Draco cl10's bytes); ";
+    }
+    std::string failed;
+    double worst = 0;
+    for (const Row* r : all) {
+      if (!comparable(*r)) continue;
+      if (!r->osteon.fast_error.empty()) {
+        failed += " " + r->label + " (" + r->osteon.fast_error + ")";
+      } else if (r->osteon.fast.grid_step > 0) {
+        worst = std::max(worst, r->osteon.fast.max_error / r->osteon.fast.grid_step);
+      }
+    }
+    detail += "every effort-0 stream decoded to as many triangles, worst position error " +
+              fixed(worst, 3) + " step; ";
+    if (!failed.empty()) detail += "effort 0 failed on:" + failed;
+    target("encode no slower than Draco cl7 at effort 0 (each ct-like mesh and each group's sum)",
            t.meshes ? std::optional<bool>(met) : std::nullopt, detail);
   }
   {  // Decoder download.
@@ -1187,7 +1274,10 @@ int main(int argc, char** argv) {
                      {"wasm_error", r.osteon.wasm_error},
                      {"wasm_identity", r.osteon.wasm_identity},
                      {"geometry_passes", r.osteon.report.geometry_passes},
-                     {"connectivity_models", r.osteon.report.connectivity_models}};
+                     {"connectivity_models", r.osteon.report.connectivity_models},
+                     {"effort0_bytes", r.osteon.fast.bytes},
+                     {"effort0_encode_ms", r.osteon.fast_encode_ms},
+                     {"effort0_error", r.osteon.fast_error}};
       for (int i = 0; i < 2; ++i)
         j["draco_cl" + std::to_string(kDracoLevels[i])] = {
             {"error", r.draco.level[i].error},

@@ -69,6 +69,24 @@ TEST(Cli, EncodeJsonReportsThePredictionMode) {
   EXPECT_GT(k["refinements"][1].get<int>(), 0) << curved.out;
 }
 
+// --effort 0: the encoder without its search, reported as such; an effort out of range is refused.
+TEST(Cli, EncodeEffortZeroSkipsTheSearch) {
+  std::string dir = test::scratch_dir();
+  test::write_bytes(dir + "/tetra.stl", kAsciiTetra);
+  CliRun fast = run_cli("encode --json --effort 0 " + dir + "/tetra.stl -o " + dir + "/fast.ostm");
+  ASSERT_EQ(fast.status, 0) << fast.err;
+  nlohmann::json j = nlohmann::json::parse(fast.out);
+  EXPECT_EQ(j["effort"], 0);
+  EXPECT_EQ(j["geometry_passes"], 1.0);
+  EXPECT_EQ(j["connectivity_models"], 1);
+  CliRun back = run_cli("decode " + dir + "/fast.ostm -o " + dir + "/fast.ply");
+  EXPECT_EQ(back.status, 0) << back.err;
+  CliRun bad = run_cli("encode --effort 2 " + dir + "/tetra.stl -o " + dir + "/bad.ostm");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.err.find("--effort"), std::string::npos) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.ostm"));
+}
+
 TEST(Cli, InfoJsonHasTheDocumentedFields) {
   std::string dir = test::scratch_dir();
   test::write_bytes(dir + "/tetra.stl", kAsciiTetra);

@@ -158,6 +158,60 @@ TEST(Codec, ReportsTheSearchsWork) {
   EXPECT_EQ(large.connectivity_models, 4);  // the two large models wait for 200,000 symbols
 }
 
+// Effort 0 codes without the search: one pass of geometry prediction, one connectivity model,
+// exact all the same, and a little larger than the default.
+TEST(Codec, EffortZeroCodesWithoutTheSearch) {
+  EncodeOptions fast;
+  fast.effort = 0;
+  for (const auto& [category, mesh] : test::mesh_categories()) {
+    SCOPED_TRACE(category);
+    expect_round_trip(mesh, fast);
+  }
+  Phantom phantom = make_phantom({.seed = 3, .detail = 2});
+  size_t searched = 0, unsearched = 0;
+  for (const Mesh& part : phantom.scene.parts) {
+    SCOPED_TRACE(part.name);
+    expect_round_trip(part, fast);
+    EncodeReport report, fast_report;
+    ASSERT_TRUE(encode(part, {}, &report).ok());
+    ASSERT_TRUE(encode(part, fast, &fast_report).ok());
+    EXPECT_EQ(fast_report.geometry_passes, 1.0);
+    EXPECT_EQ(fast_report.connectivity_models, 1);
+    EXPECT_EQ(fast_report.shape_scale, 16);  // the plain parallelogram
+    EXPECT_EQ(fast_report.shape_apex, 0);
+    EXPECT_EQ(fast_report.curvature, 0);
+    searched += report.bytes;
+    unsearched += fast_report.bytes;
+  }
+  EXPECT_GE(unsearched, searched) << "the search keeps the smallest of what it measures";
+  EXPECT_LT(double(unsearched), 1.15 * double(searched));
+  // On a voxel lattice (raw marching cubes, skull_mc.ply's kind) effort 0 codes on it too: much
+  // smaller than plain residuals on the same grid.
+  const Mesh sphere = make_lattice_sphere(4, 50.0f, 2.3f);
+  expect_round_trip(sphere, fast);
+  EncodeReport lattice;
+  Result<std::vector<uint8_t>> on_lattice = encode(sphere, fast, &lattice);
+  ASSERT_TRUE(on_lattice.ok());
+  EXPECT_GE(lattice.grid.lattice, 2u);
+  EncodeOptions plain = fast;
+  plain.grid = lattice.grid;
+  plain.grid.lattice = 0;
+  Result<std::vector<uint8_t>> off_lattice = encode(sphere, plain);
+  ASSERT_TRUE(off_lattice.ok());
+  EXPECT_LT(on_lattice->size() * 10, off_lattice->size() * 8);
+  for (int effort : {-1, 2}) {
+    EncodeOptions bad;
+    bad.effort = effort;
+    Result<std::vector<uint8_t>> refused = encode(sphere, bad);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.status().code(), ErrorCode::kInvalidArgument);
+    EXPECT_NE(
+        refused.status().message().find("effort must be 0 or 1, not " + std::to_string(effort)),
+        std::string::npos)
+        << refused.status().message();
+  }
+}
+
 TEST(Codec, BitsAndPrecisionSetTheGridStep) {
   Mesh sphere = make_icosphere(3, 50.0f);
   for (int bits : {8, 12, 16, 20, 24}) {

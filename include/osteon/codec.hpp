@@ -48,6 +48,12 @@ struct EncodeOptions {
   bool normals = false;
   /// Bits per octahedral component of transmitted normals, 8..16 (10: within about 0.1 degree).
   int normal_bits = 10;
+  /// How hard the encoder searches for the smallest stream, 0 or 1. 1 (the default): it measures
+  /// its candidate codings (prediction modes, triangle shapes, refinements, connectivity context
+  /// models) and keeps the cheapest. 0: no search, one coding chosen up front, several times
+  /// faster on small meshes for a few percent more bytes (docs/DESIGN.md, "Encode speed"). Both
+  /// decode with the same decoder, to positions within the same bound.
+  int effort = 1;
 };
 
 /// What encode measured; every field is filled on success.

@@ -50,6 +50,10 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
   if (input.triangle_count() > detail::kMaxTriangles) {
     return invalid("more than 2^28 triangles in one mesh: split it into components first");
   }
+  if (options.effort < 0 || options.effort > 1) {
+    return invalid("effort must be 0 or 1, not " + std::to_string(options.effort));
+  }
+  const bool search = options.effort > 0;
   if (options.normals && (options.normal_bits < 8 || options.normal_bits > 16)) {
     return invalid("normal bits must be between 8 and 16, not " +
                    std::to_string(options.normal_bits));
@@ -83,7 +87,7 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
 
   uint32_t vertex_count = static_cast<uint32_t>(mesh.positions.size());
   OSTEON_ASSIGN_OR_RETURN(detail::ConnectivityEncoding connectivity,
-                          detail::encode_connectivity(mesh.indices, vertex_count));
+                          detail::encode_connectivity(mesh.indices, vertex_count, search));
   detail::QuantizedPositions ordered;
   ordered.xyz.resize(q.xyz.size());
   for (uint32_t d = 0; d < vertex_count; ++d) {
@@ -106,8 +110,8 @@ Result<std::vector<uint8_t>> encode(const Mesh& input, const EncodeOptions& opti
                                    options.normal_bits, &normals);
   }
   std::vector<uint8_t> geometry;
-  const detail::GeometryChoice chosen =
-      detail::encode_geometry(connectivity.decoded_newest, ordered, grid.lattice, &geometry, chain);
+  const detail::GeometryChoice chosen = detail::encode_geometry(
+      connectivity.decoded_newest, ordered, grid.lattice, &geometry, chain, search);
   std::vector<uint8_t> connectivity_bytes = std::move(connectivity.prefix);
   connectivity.symbols->append_to(&connectivity_bytes, chosen.first_state);
 

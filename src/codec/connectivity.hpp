@@ -72,9 +72,11 @@ struct ConnectivityEncoding {
 
 /// Encodes `indices` (3 per triangle, every index < vertex_count, no triangle repeating an index,
 /// every vertex referenced) losslessly: several components, boundaries, handles, non-manifold
-/// edges and vertices and inconsistently oriented faces included.
+/// edges and vertices and inconsistently oriented faces included. `search`: plan the tables of
+/// every context model the encoder tries and keep the smallest; otherwise one model,
+/// kFastContextModel.
 Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& indices,
-                                                 uint32_t vertex_count);
+                                                 uint32_t vertex_count, bool search = true);
 
 /// Decodes a connectivity section of stream `version` (1 to 8; its symbol section's layout
 /// changed in version 8). `vertex_count` and `triangle_count` come from the stream's

@@ -137,7 +137,7 @@ Status internal(const std::string& what) {
 }  // namespace
 
 Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& indices,
-                                                 uint32_t vertex_count) {
+                                                 uint32_t vertex_count, bool search) {
   if (indices.size() % 3 != 0 || indices.size() / 3 > kMaxConnectivityTriangles) {
     return error(ErrorCode::kInvalidArgument, "connectivity encoder",
                  "the index count is not a multiple of 3 or exceeds 2^28 triangles");
@@ -287,12 +287,16 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
   };
   uint32_t best_model = 0;
   SymbolPlan best_plan;
-  const uint32_t models = n >= kLargeModelSymbols ? kContextModelCount : kEncoderContextModels;
-  out.models_planned = models;
+  // Without the search, one model: the one the search keeps most often.
+  const uint32_t first_model = search ? 0 : kFastContextModel;
+  const uint32_t models = !search                   ? kFastContextModel + 1
+                          : n >= kLargeModelSymbols ? kContextModelCount
+                                                    : kEncoderContextModels;
+  out.models_planned = models - first_model;
   std::vector<uint32_t> counts;
   std::vector<uint32_t> order;  // the model's contexts that occur, by first symbol
   std::vector<uint8_t> seen;
-  for (uint32_t model = 0; model < models; ++model) {
+  for (uint32_t model = first_model; model < models; ++model) {
     const SymbolContext context(kContextModels[model]);
     counts.assign(size_t{context.contexts()} * kSymbolCount, 0);
     seen.assign(context.contexts(), 0);
@@ -308,7 +312,7 @@ Result<ConnectivityEncoding> encode_connectivity(const std::vector<uint32_t>& in
       }
     }
     SymbolPlan plan = plan_symbols(counts, order, context.contexts(), kSymbolCount);
-    if (model == 0 || plan.bits < best_plan.bits) {
+    if (model == first_model || plan.bits < best_plan.bits) {
       best_plan = std::move(plan);
       best_model = model;
     }

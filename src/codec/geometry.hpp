@@ -61,7 +61,7 @@ struct GeometryChoice {
 };
 GeometryChoice encode_geometry(const NewestTriangles& newest, const QuantizedPositions& q,
                                uint32_t lattice, std::vector<uint8_t>* out,
-                               uint32_t end_state = kRansLow);
+                               uint32_t end_state = kRansLow, bool search = true);
 /// Decodes a geometry section of stream `version` (1 to 8; version 7's section is version 6's,
 /// version 8's differs in its symbol section's layout alone),
 /// for `vertex_count` vertices. `newest` is decode_connectivity's for the stream (its vertices <

@@ -225,6 +225,10 @@ struct Refinement {
   int32_t curvature = 0;
   bool none() const { return extrapolation == 0 && curvature == 0; }
 };
+// The extrapolation weight without the encoder's search (EncodeOptions::effort 0): the middle of
+// what the search chooses (8 to 14 on BodyParts3D's bones, 16 to 20 on Visible Human's, 8 to 22
+// on PSB's).
+constexpr int32_t kFastExtrapolation = 12;
 
 /// How a parallelogram's vertex is placed from the triangle (n, p, o) across its edge, in
 /// sixteenths (stream version 5; version 4's apex weight is a special case): from the edge's
@@ -1112,7 +1116,8 @@ int32_t choose_curvature(const NewestTriangles& nt, const QuantizedPositions& q,
 }  // namespace
 
 GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositions& q,
-                               uint32_t lattice, std::vector<uint8_t>* out, uint32_t end_state) {
+                               uint32_t lattice, std::vector<uint8_t>* out, uint32_t end_state,
+                               bool search) {
   const uint32_t vertex_count = static_cast<uint32_t>(q.xyz.size() / 3);
   assert(nt.first.size() == size_t{vertex_count} + 1 && nt.neighbour.size() == vertex_count);
   const ContextModel model(vertex_count, kStreamVersion);
@@ -1127,11 +1132,13 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
   // as long as the coding pass; the prefix codes the codec bench's 74 meshes to the same sizes.
   // Each measured coding queues its symbols as it goes, so the one kept resumes after its
   // prefix instead of predicting it again.
-  const uint32_t measured = std::min(
-      {vertex_count, kMeasuredVertices, std::max(kMeasuredVertices / 4, vertex_count / 4)});
-  const TriangleShape shape = choose_shape(nt, q, measured, lattice);
+  // Without the search (EncodeOptions::effort 0): one coding, chosen up front (below).
+  const uint32_t measured = !search ? 0
+                                    : std::min({vertex_count, kMeasuredVertices,
+                                                std::max(kMeasuredVertices / 4, vertex_count / 4)});
+  const TriangleShape shape = search ? choose_shape(nt, q, measured, lattice) : TriangleShape();
   Refinement refine;  // the curvature weight is chosen for the coding kept, below
-  refine.extrapolation = choose_extrapolation(nt, q, measured);
+  refine.extrapolation = search ? choose_extrapolation(nt, q, measured) : kFastExtrapolation;
   // Each entry's shaped value, once for every coding measured and the one kept, where the apex
   // makes it costly (a square root and a division); without it, computing it again is cheaper
   // than reading it back.
@@ -1174,10 +1181,19 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
     codings.back().enc.reserve(size_t{measured} * symbols_per_vertex(coding_lattice));
     codings.back().state.symbols.reserve(measured);
   };
-  for (uint32_t m = 0; m < 2 * kModes; ++m) {
+  // Without the search: the mean of the parallelograms, on the tangent plane, or lattice coding
+  // where the positions sit on a lattice (what the search keeps on most meshes of each kind).
+  if (!search) {
+    if (lattice != 0) {
+      add(0, lattice, kLatticeContexts);
+    } else {
+      add(kModes, 0, model.contexts(true));
+    }
+  }
+  for (uint32_t m = 0; search && m < 2 * kModes; ++m) {
     add(static_cast<uint8_t>(m), 0, model.contexts(m >= kModes));
   }
-  for (uint32_t m = 0; lattice != 0 && m < kModes; ++m) {
+  for (uint32_t m = 0; search && lattice != 0 && m < kModes; ++m) {
     add(static_cast<uint8_t>(m), lattice, kLatticeContexts);
   }
   std::vector<uint32_t> histogram;  // one coding's at a time
@@ -1206,6 +1222,7 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
   std::vector<bool> out_of_it(codings.size(), false);
   size_t best = 0;
   for (const uint32_t end : {std::min(measured, kFirstStage), measured}) {
+    if (!search) break;
     for (uint32_t m = 0; m < kModes; ++m) {  // a parallelogram mode's two plain codings at once
       Coding& flat = codings[m];
       Coding& plane = codings[m + kModes];
@@ -1235,7 +1252,7 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
   // first kFirstStage vertices (the kept coding again, with it, against the kept coding's own
   // first symbols), and kept only if that measures smaller: the estimate proposes weights on
   // meshes where coding gains nothing. A kept weight's coding resumes from there.
-  if (codings[best].lattice == 0) {
+  if (search && codings[best].lattice == 0) {
     const uint8_t mode = codings[best].mode;
     const uint32_t end = std::min(kFirstStage, codings[best].state.next);
     refine.curvature =
