@@ -969,7 +969,7 @@ OSTEON_NOINLINE OSTEON_COLD_FUNCTION Status SymbolDecoder::init(ByteReader& in, 
 }
 
 OSTEON_NOINLINE SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t context) const {
-  if (c.budget == 0 && !single_) {  // refill: as many symbols as surely have two bytes each
+  if (c.budget == 0) {  // refill: as many symbols as surely have two bytes each
     c.budget = std::min<size_t>(c.spare, static_cast<size_t>(end_ - c.cur) / 2);
     c.spare -= c.budget;
   }
@@ -991,7 +991,7 @@ OSTEON_NOINLINE SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t c
     if (c.cur == end_) return failed(c);
     y = (y << 8) | *c.cur++;
   }
-  if (single_) {  // one state: every symbol is x0's, and the budget stays empty
+  if (single_) {  // one state: every symbol is x0's
     c.x0 = y;
     return {c, symbol};
   }

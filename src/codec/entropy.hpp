@@ -338,10 +338,14 @@ inline uint32_t SymbolDecoder::get(Cursor& c, uint32_t context) const {
     return static_cast<uint32_t>(step.value);
   }
   --c.budget;
-  const uint32_t y = freq * (x >> kProbBits) + slot - start;
+  const uint32_t y = renormalize(freq * (x >> kProbBits) + slot - start, c.cur);
+  if (single_) [[unlikely]] {  // one state (a short section): every symbol is x0's
+    c.x0 = y;
+    return symbol;
+  }
   c.x0 = c.x1;
   c.x1 = c.x2;
-  c.x2 = renormalize(y, c.cur);
+  c.x2 = y;
   return symbol;
 }
 
@@ -349,7 +353,7 @@ inline void SymbolDecoder::get3(Cursor& c, const uint32_t context[3], uint32_t s
   const uint32_t slot[3] = {c.x0 & (kProbScale - 1), c.x1 & (kProbScale - 1),
                             c.x2 & (kProbScale - 1)};
   uint32_t start[3], freq[3];
-  if (c.budget < 3 || std::max({context[0], context[1], context[2]}) >= contexts_ ||
+  if (c.budget < 3 || single_ || std::max({context[0], context[1], context[2]}) >= contexts_ ||
       !find(context[0], slot[0], &symbol[0], &start[0], &freq[0]) ||
       !find(context[1], slot[1], &symbol[1], &start[1], &freq[1]) ||
       !find(context[2], slot[2], &symbol[2], &start[2], &freq[2])) [[unlikely]] {
