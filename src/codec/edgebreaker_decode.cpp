@@ -495,7 +495,7 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
   }
   // Version 8: a head byte first, the context model and which counts follow (the others are 0,
   // the component count 1); the vertex ids are counted beyond vertex_count.
-  const bool compact = version >= 8;
+  const bool compact = version >= kCompactSectionVersion;
   uint8_t head = kHeadEvents | kHeadDummies | kHeadGlue | kHeadComponents;
   if (compact &&
       (!in.read_le(&head) || (head & 0x80) != 0 || (head & kHeadModelMask) >= kContextModelCount)) {
@@ -579,7 +579,7 @@ OSTEON_COLD_FUNCTION Result<DecodedConnectivity> decode_connectivity(ByteReader&
   at = in.offset();
   SymbolDecoder decoder;
   OSTEON_RETURN_IF_ERROR(decoder.init(in, kSymbolCount, context.contexts(),
-                                      {version, symbols, 0, version >= 8}, source, "connectivity"));
+                                      {version, symbols, 0, compact}, source, "connectivity"));
   if (decoder.symbols_left() != symbols) {
     return bad(
         message("the symbol section holds % symbols, not %", {decoder.symbols_left(), symbols}));

@@ -35,7 +35,7 @@ constexpr int kMaxGammaZeros = 32;   // gamma-coded values are < 2^33
 constexpr int kMaxGolombOrder = 31;  // so (2^33 - 1) << k fits in 64 bits
 // The symbols are coded by kStates interleaved rANS states: symbol i by state i mod kStates. From
 // stream version 8 a section of fewer than kShortSection symbols has one state (its flush costs 4
-// bytes, not 12, on a bone's coarsest level of a few hundred symbols) and decodes on the slow path.
+// bytes, not 12, on a bone's coarsest level of a few hundred symbols).
 constexpr uint32_t kStates = 3;
 constexpr uint64_t kShortSection = 4096;
 constexpr uint32_t states_for(uint64_t symbols) {
@@ -991,13 +991,7 @@ OSTEON_NOINLINE SymbolDecoder::Step SymbolDecoder::get_slow(Cursor c, uint32_t c
     if (c.cur == end_) return failed(c);
     y = (y << 8) | *c.cur++;
   }
-  if (single_) {  // one state: every symbol is x0's
-    c.x0 = y;
-    return {c, symbol};
-  }
-  c.x0 = c.x1;
-  c.x1 = c.x2;
-  c.x2 = y;
+  advance(c, y);
   return {c, symbol};
 }
 

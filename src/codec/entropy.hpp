@@ -174,8 +174,8 @@ class SymbolDecoder {
     // chains of dependent steps instead of one: a step's table search and multiply overlap the
     // next steps' (when the caller's contexts allow; see get3()). (Kept apart from each other:
     // adjacent, the compiler rotates them as one vector, which chains every step to the last.)
-    // A short section of version 8 has x0 alone (x1 = x2 = 2^23 throughout) and a budget of 0:
-    // its few symbols all take the slow path, which does not rotate.
+    // A short section of version 8 has x0 alone (x1 = x2 = 2^23 throughout): each step keeps
+    // its new state in x0 instead of rotating (advance()).
     uint32_t x0;
     const uint8_t* cur;  // the next renormalisation byte
     uint32_t x1;
@@ -251,6 +251,17 @@ class SymbolDecoder {
   bool find(uint32_t context, uint32_t slot, uint32_t* symbol, uint32_t* start,
             uint32_t* freq) const;
   static uint32_t renormalize(uint32_t y, const uint8_t*& cur);
+  /// A step's new state y, renormalised: kept in x0 where the section has one state, otherwise
+  /// rotated in behind x1 and x2 (the next symbol is x1's).
+  void advance(Cursor& c, uint32_t y) const {
+    if (single_) [[unlikely]] {
+      c.x0 = y;
+      return;
+    }
+    c.x0 = c.x1;
+    c.x1 = c.x2;
+    c.x2 = y;
+  }
 
   /// A cursor whose rANS step failed or read past the stream (for the slow paths).
   struct Step {
@@ -338,14 +349,7 @@ inline uint32_t SymbolDecoder::get(Cursor& c, uint32_t context) const {
     return static_cast<uint32_t>(step.value);
   }
   --c.budget;
-  const uint32_t y = renormalize(freq * (x >> kProbBits) + slot - start, c.cur);
-  if (single_) [[unlikely]] {  // one state (a short section): every symbol is x0's
-    c.x0 = y;
-    return symbol;
-  }
-  c.x0 = c.x1;
-  c.x1 = c.x2;
-  c.x2 = y;
+  advance(c, renormalize(freq * (x >> kProbBits) + slot - start, c.cur));
   return symbol;
 }
 

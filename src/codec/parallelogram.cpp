@@ -1181,91 +1181,93 @@ GeometryChoice encode_geometry(const NewestTriangles& nt, const QuantizedPositio
     codings.back().enc.reserve(size_t{measured} * symbols_per_vertex(coding_lattice));
     codings.back().state.symbols.reserve(measured);
   };
-  // Without the search: the mean of the parallelograms, on the tangent plane, or lattice coding
-  // where the positions sit on a lattice (what the search keeps on most meshes of each kind).
+  size_t best = 0;  // the coding kept
   if (!search) {
+    // Without the search: the mean of the parallelograms, on the tangent plane, or lattice
+    // coding where the positions sit on a lattice (what the search keeps on most meshes of each
+    // kind).
     if (lattice != 0) {
       add(0, lattice, kLatticeContexts);
     } else {
       add(kModes, 0, model.contexts(true));
     }
-  }
-  for (uint32_t m = 0; search && m < 2 * kModes; ++m) {
-    add(static_cast<uint8_t>(m), 0, model.contexts(m >= kModes));
-  }
-  for (uint32_t m = 0; search && lattice != 0 && m < kModes; ++m) {
-    add(static_cast<uint8_t>(m), lattice, kLatticeContexts);
-  }
-  std::vector<uint32_t> histogram;  // one coding's at a time
-  // A coding's size from what it queued: all of it, or (plain residuals) its first `entries`
-  // symbols, with their raw bits.
-  auto estimate = [&](const Coding& c, size_t entries = SIZE_MAX) {
-    const uint32_t contexts = c.lattice != 0 ? kLatticeContexts : model.contexts(c.mode >= kModes);
-    histogram.assign(size_t{contexts} * kResidualSymbols, 0);
-    const std::vector<uint32_t>& queued = c.enc.queued();
-    const bool all = entries >= queued.size();
-    uint64_t raw_bits = 0;
-    for (size_t i = 0; i < (all ? queued.size() : entries); ++i) {
-      const uint32_t symbol = queued[i] & ((1u << SymbolEncoder::kContextShift) - 1);
-      ++histogram[size_t{queued[i] >> SymbolEncoder::kContextShift} * kResidualSymbols + symbol];
-      raw_bits += kRawBits[symbol];
+  } else {
+    for (uint32_t m = 0; m < 2 * kModes; ++m) {
+      add(static_cast<uint8_t>(m), 0, model.contexts(m >= kModes));
     }
-    return estimated_bits(histogram, contexts, all ? c.enc.raw_bit_count() : raw_bits);
-  };
-  // Two stages: the first kFirstStage vertices, where one coding usually leads every other by
-  // more than kClearLead already; only a close call is measured on the whole prefix (and that
-  // chose as measuring it all did on the codec bench's 74 meshes), and only among the codings
-  // within kBehind of the leader after the first stage.
-  constexpr uint32_t kFirstStage = 1024;
-  constexpr double kClearLead = 1.02;
-  constexpr double kBehind = 1.04;
-  std::vector<bool> out_of_it(codings.size(), false);
-  size_t best = 0;
-  for (const uint32_t end : {std::min(measured, kFirstStage), measured}) {
-    if (!search) break;
-    for (uint32_t m = 0; m < kModes; ++m) {  // a parallelogram mode's two plain codings at once
-      Coding& flat = codings[m];
-      Coding& plane = codings[m + kModes];
-      if (out_of_it[m] && out_of_it[m + kModes]) continue;
-      encode_pair(nt, q, model, PredictionMode(m), shape, refine.extrapolation, placed_entries, end,
-                  &flat.state, &plane.state, queue(flat.enc), queue(plane.enc));
+    for (uint32_t m = 0; lattice != 0 && m < kModes; ++m) {
+      add(static_cast<uint8_t>(m), lattice, kLatticeContexts);
     }
-    for (size_t i = 2 * kModes; i < codings.size(); ++i) {
-      if (!out_of_it[i]) run(codings[i], end, queue(codings[i].enc));
+    std::vector<uint32_t> histogram;  // one coding's at a time
+    // A coding's size from what it queued: all of it, or (plain residuals) its first `entries`
+    // symbols, with their raw bits.
+    auto estimate = [&](const Coding& c, size_t entries = SIZE_MAX) {
+      const uint32_t contexts =
+          c.lattice != 0 ? kLatticeContexts : model.contexts(c.mode >= kModes);
+      histogram.assign(size_t{contexts} * kResidualSymbols, 0);
+      const std::vector<uint32_t>& queued = c.enc.queued();
+      const bool all = entries >= queued.size();
+      uint64_t raw_bits = 0;
+      for (size_t i = 0; i < (all ? queued.size() : entries); ++i) {
+        const uint32_t symbol = queued[i] & ((1u << SymbolEncoder::kContextShift) - 1);
+        ++histogram[size_t{queued[i] >> SymbolEncoder::kContextShift} * kResidualSymbols + symbol];
+        raw_bits += kRawBits[symbol];
+      }
+      return estimated_bits(histogram, contexts, all ? c.enc.raw_bit_count() : raw_bits);
+    };
+    // Two stages: the first kFirstStage vertices, where one coding usually leads every other by
+    // more than kClearLead already; only a close call is measured on the whole prefix (and that
+    // chose as measuring it all did on the codec bench's 74 meshes), and only among the codings
+    // within kBehind of the leader after the first stage.
+    constexpr uint32_t kFirstStage = 1024;
+    constexpr double kClearLead = 1.02;
+    constexpr double kBehind = 1.04;
+    std::vector<bool> out_of_it(codings.size(), false);
+    for (const uint32_t end : {std::min(measured, kFirstStage), measured}) {
+      for (uint32_t m = 0; m < kModes; ++m) {  // a parallelogram mode's two plain codings at once
+        Coding& flat = codings[m];
+        Coding& plane = codings[m + kModes];
+        if (out_of_it[m] && out_of_it[m + kModes]) continue;
+        encode_pair(nt, q, model, PredictionMode(m), shape, refine.extrapolation, placed_entries,
+                    end, &flat.state, &plane.state, queue(flat.enc), queue(plane.enc));
+      }
+      for (size_t i = 2 * kModes; i < codings.size(); ++i) {
+        if (!out_of_it[i]) run(codings[i], end, queue(codings[i].enc));
+      }
+      best = 0;
+      while (out_of_it[best]) ++best;
+      for (size_t i = 0; i < codings.size(); ++i) {
+        if (out_of_it[i]) continue;
+        codings[i].bits = estimate(codings[i]);
+        if (codings[i].bits < codings[best].bits) best = i;  // of equals, the first
+      }
+      bool clear = true;
+      for (size_t i = 0; i < codings.size(); ++i) {
+        if (out_of_it[i] || i == best) continue;
+        if (codings[i].bits <= codings[best].bits * kClearLead) clear = false;
+        if (codings[i].bits > codings[best].bits * kBehind) out_of_it[i] = true;
+      }
+      if (clear) break;
     }
-    best = 0;
-    while (out_of_it[best]) ++best;
-    for (size_t i = 0; i < codings.size(); ++i) {
-      if (out_of_it[i]) continue;
-      codings[i].bits = estimate(codings[i]);
-      if (codings[i].bits < codings[best].bits) best = i;  // of equals, the first
-    }
-    bool clear = true;
-    for (size_t i = 0; i < codings.size(); ++i) {
-      if (out_of_it[i] || i == best) continue;
-      if (codings[i].bits <= codings[best].bits * kClearLead) clear = false;
-      if (codings[i].bits > codings[best].bits * kBehind) out_of_it[i] = true;
-    }
-    if (clear) break;
-  }
-  // The curvature step, for a plain coding: a weight its estimate proposes is measured, on the
-  // first kFirstStage vertices (the kept coding again, with it, against the kept coding's own
-  // first symbols), and kept only if that measures smaller: the estimate proposes weights on
-  // meshes where coding gains nothing. A kept weight's coding resumes from there.
-  if (search && codings[best].lattice == 0) {
-    const uint8_t mode = codings[best].mode;
-    const uint32_t end = std::min(kFirstStage, codings[best].state.next);
-    refine.curvature =
-        choose_curvature(nt, q, codings[best].state.next, PredictionMode(mode % kModes), shape,
-                         refine.extrapolation, mode >= kModes, codings[best].state.symbols.data());
-    if (refine.curvature != 0) {
-      add(mode, 0, model.contexts(mode >= kModes));
-      Coding& with = codings.back();
-      run(with, end, queue(with.enc));
-      if (estimate(with, 3 * size_t{end}) < estimate(codings[best], 3 * size_t{end})) {
-        best = codings.size() - 1;
-      } else {
-        refine.curvature = 0;
+    // The curvature step, for a plain coding: a weight its estimate proposes is measured, on the
+    // first kFirstStage vertices (the kept coding again, with it, against the kept coding's own
+    // first symbols), and kept only if that measures smaller: the estimate proposes weights on
+    // meshes where coding gains nothing. A kept weight's coding resumes from there.
+    if (codings[best].lattice == 0) {
+      const uint8_t mode = codings[best].mode;
+      const uint32_t end = std::min(kFirstStage, codings[best].state.next);
+      refine.curvature = choose_curvature(
+          nt, q, codings[best].state.next, PredictionMode(mode % kModes), shape,
+          refine.extrapolation, mode >= kModes, codings[best].state.symbols.data());
+      if (refine.curvature != 0) {
+        add(mode, 0, model.contexts(mode >= kModes));
+        Coding& with = codings.back();
+        run(with, end, queue(with.enc));
+        if (estimate(with, 3 * size_t{end}) < estimate(codings[best], 3 * size_t{end})) {
+          best = codings.size() - 1;
+        } else {
+          refine.curvature = 0;
+        }
       }
     }
   }

@@ -178,19 +178,18 @@ Result<QuantizationGrid> choose_grid(const std::vector<Vec3>& positions,
     grid = options.grid;
   } else if (options.precision < 0 || !std::isfinite(options.precision)) {
     return error(ErrorCode::kInvalidArgument, "", "--precision must be a positive number");
-  } else if (options.precision > 0) {
-    grid.origin = lo;
-    grid.step = 2.0 * options.precision;
-    fit_lattice(positions, lo, &grid);
-    if (grid.lattice == 0) grid.step = float_step(grid.step);
   } else {
-    if (options.bits < 8 || options.bits > 24) {
+    // The codec's own step, from the precision or the bits; on a lattice where the positions sit
+    // on one, else rounded down to a float.
+    if (options.precision == 0 && (options.bits < 8 || options.bits > 24)) {
       return error(ErrorCode::kInvalidArgument, "",
                    "--bits must be between 8 and 24, not " + std::to_string(options.bits));
     }
     grid.origin = lo;
-    grid.step = side > 0 ? side / double((uint32_t{1} << options.bits) - 1) : 1.0;
-    if (side > 0) fit_lattice(positions, lo, &grid);
+    grid.step = options.precision > 0 ? 2.0 * options.precision
+                : side > 0            ? side / double((uint32_t{1} << options.bits) - 1)
+                                      : 1.0;
+    if (options.precision > 0 || side > 0) fit_lattice(positions, lo, &grid);
     if (grid.lattice == 0) grid.step = float_step(grid.step);
   }
   // Every quantized coordinate must stay within +-2^30 so that residuals fit 32 bits.
