@@ -4,8 +4,9 @@
 // WebGL), the network throttled through the DevTools protocol (Network.emulateNetworkConditions,
 // cache disabled), a fresh browser context per load, and prints the median over the runs of each
 // step of the start, in ms from navigation start: the page's HTML in, the bootstrap run (its
-// manifest request), the manifest in, the render worker started, its WebGL context made,
-// three.js's text in, the first chunk asked for, the first and the last first-level component
+// manifest request), the manifest's response ended (resource timing) and its text read on the
+// page, the render worker started, its WebGL context made, three.js's text in, the first chunk
+// asked for and in, the WebAssembly decoder in, the first and the last first-level component
 // decoded, three.js loaded, its view made, its shaders compiled, the first frames' program linked,
 // the first frame (window.osteon.firstFrameMs: its draw returned, which is before the frame is on
 // screen), the skeleton complete (skeletonCompleteMs), the finer levels' first fetch and when the
@@ -45,6 +46,7 @@ function parseOptions(argv) {
 const kSteps = [
   ['html', 'page HTML in', (s) => s.html],
   ['boot', 'bootstrap ran', (s) => s.res.manifest?.start],
+  ['manifestEnd', 'manifest response end', (s) => s.res.manifest?.end],
   ['manifest', 'manifest in', (s) => s.timings.manifest],
   ['started', 'worker started', (s) => s.timings.started],
   ['startDelay', '  (after the bootstrap)', (s) => s.timings.started - s.res.manifest?.start],
@@ -52,6 +54,8 @@ const kSteps = [
   ['context', 'context ready', (s) => s.timings.context],
   ['threeFetched', 'three.js fetched', (s) => s.timings.threeFetched],
   ['chunk', 'first chunk asked', (s) => s.res.chunk?.start],
+  ['chunkEnd', 'first chunk in', (s) => s.res.chunk?.end],
+  ['wasmEnd', 'wasm in', (s) => s.res.wasm?.end],
   ['decoded', 'first mesh decoded', (s) => s.decoded[0]],
   ['decodedAll', 'last first level decoded', (s) => s.decoded[1]],
   ['three', 'three.js loaded', (s) => s.timings.three],
